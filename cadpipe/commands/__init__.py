@@ -1,0 +1,3 @@
+"""One module per ``cadpipe`` subcommand; importing this package registers them all."""
+
+from . import demo  # noqa: F401

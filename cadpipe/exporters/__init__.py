@@ -1,0 +1,97 @@
+"""Writing and reading files: one exporter per format, chosen by the file's suffix.
+
+Exporters are looked up in :data:`cadpipe.registry.exporters` (entry-point group
+``cadpipe.exporters``), so a plugin adds a format the same way cadpipe does.
+Every output is written whole or not at all: into a temporary file beside the
+target, then renamed over it.
+"""
+
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path as FilePath
+
+from ..errors import ExportError, InputError, MeshError
+from ..registry import exporters
+
+
+def suffix_of(path):
+    """The format key of a path: its lower-case suffix without the dot."""
+    suffix = FilePath(path).suffix.lower().lstrip(".")
+    if not suffix:
+        raise InputError(f"{path}: no file suffix; use one of {', '.join(exporters.names())}")
+    return suffix
+
+
+def as_mesh(obj):
+    """The :class:`~cadpipe.Mesh` behind ``obj``: a Mesh itself, or what its ``mesh()`` builds."""
+    from ..mesh import Mesh
+
+    if isinstance(obj, Mesh):
+        return obj
+    if callable(getattr(obj, "mesh", None)):
+        return obj.mesh()
+    raise InputError(f"cannot export a {type(obj).__name__}; expected a Mesh, Pipe or Assembly")
+
+
+def export(obj, path, **options):
+    """Write a :class:`~cadpipe.Mesh` (or anything an exporter accepts) to ``path``.
+
+    Returns the path written. Raises :class:`InputError` for an unknown suffix and
+    :class:`ExportError` when the file cannot be written (no partial file remains).
+    """
+    key = suffix_of(path)
+    if key not in exporters:
+        raise InputError(f"{path}: unknown output format '.{key}'; supported: "
+                         f"{', '.join('.' + n for n in exporters.names())}")
+    exporters.get(key)(obj, FilePath(path), **options)
+    return FilePath(path)
+
+
+@contextmanager
+def atomic_path(path):
+    """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
+    path = FilePath(path)
+    directory = path.parent if str(path.parent) else FilePath(".")
+    if not directory.is_dir():
+        raise ExportError(f"{path}: folder {directory} does not exist; create it first")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix,
+                                   dir=directory)
+    except OSError as exc:
+        raise ExportError(f"{path}: cannot write there ({exc.strerror}); "
+                          "choose a writable folder") from None
+    os.close(fd)
+    try:
+        yield FilePath(tmp)
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise ExportError(f"{path}: writing failed ({exc}); nothing was written") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def load_mesh(path):
+    """Read a mesh file through trimesh into a :class:`~cadpipe.Mesh`.
+
+    Scenes are flattened into one mesh. Raises :class:`ExportError` for a missing or
+    unreadable file and :class:`MeshError` for one holding no triangles.
+    """
+    import trimesh
+
+    from ..mesh import Mesh
+
+    path = FilePath(path)
+    if not path.is_file():
+        raise ExportError(f"{path}: no such file")
+    try:
+        loaded = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:  # trimesh raises many types for corrupt input
+        raise MeshError(f"{path}: cannot read it as a mesh ({type(exc).__name__}: {exc})") \
+            from None
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise MeshError(f"{path}: the file holds no triangles")
+    # files store each triangle's corners separately (STL): weld exact duplicates
+    loaded.merge_vertices(merge_tex=True, merge_norm=True)
+    return Mesh(loaded.vertices, loaded.faces, attributes={"source": str(path)})

@@ -1,0 +1,249 @@
+"""Step S1: the path a pipe follows, as a validated polyline.
+
+A :class:`Path` is an immutable ``(N, 3)`` polyline, open or closed. Smooth curves
+are fitted through control points with scipy's cubic splines and discretized at an
+arc-length step ``tau`` or a chordal tolerance; polyline corners can be rounded
+with fillets of a given bend radius.
+"""
+
+from functools import cached_property
+
+import numpy as np
+
+from ._validate import as_points, as_positive
+from .errors import GeometryError, InputError
+
+#: consecutive points closer than this fraction of the path's extent are merged
+DUPLICATE_TOLERANCE = 1e-9
+
+
+def _unit(v):
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(n > 0, n, 1.0)
+
+
+class Path:
+    """A polyline in 3D, open or closed.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like
+        Finite coordinates. Consecutive duplicates (within 1e-9 of the extent) are
+        dropped; for a closed path a last point equal to the first is dropped too.
+    closed : bool
+        Whether the last point connects back to the first.
+    """
+
+    __slots__ = ("_points", "_closed", "__dict__")
+
+    def __init__(self, points, closed=False):
+        pts = as_points(points, "points", min_count=2)
+        extent = float(np.ptp(pts, axis=0).max())
+        tol = DUPLICATE_TOLERANCE * max(extent, 1.0)
+        keep = np.ones(len(pts), bool)
+        keep[1:] = np.linalg.norm(np.diff(pts, axis=0), axis=1) > tol
+        pts = pts[keep]
+        if closed and len(pts) > 1 and np.linalg.norm(pts[-1] - pts[0]) <= tol:
+            pts = pts[:-1]
+        need = 3 if closed else 2
+        if len(pts) < need:
+            raise InputError(f"points: a{' closed' if closed else 'n open'} path needs at least "
+                             f"{need} distinct points, got {len(pts)} after dropping duplicates")
+        pts.flags.writeable = False
+        self._points = pts
+        self._closed = bool(closed)
+
+    def __repr__(self):
+        kind = "closed" if self._closed else "open"
+        return f"<cadpipe.Path {kind}, {len(self._points)} points, length {self.length:.6g}>"
+
+    def __len__(self):
+        return len(self._points)
+
+    @property
+    def points(self):
+        """(N, 3) float64, read-only."""
+        return self._points
+
+    @property
+    def closed(self):
+        return self._closed
+
+    # -- derived geometry -----------------------------------------------------
+    @cached_property
+    def segments(self):
+        """(M, 3) vectors from each point to the next (M = N - 1, or N when closed)."""
+        p = self._points
+        nxt = np.roll(p, -1, axis=0) if self._closed else p[1:]
+        return nxt - p[: len(nxt)]
+
+    @cached_property
+    def segment_lengths(self):
+        return np.linalg.norm(self.segments, axis=1)
+
+    @cached_property
+    def directions(self):
+        """(M, 3) unit direction of each segment."""
+        return self.segments / self.segment_lengths[:, None]
+
+    @cached_property
+    def length(self):
+        return float(self.segment_lengths.sum())
+
+    @cached_property
+    def arc_length(self):
+        """(N,) distance along the path from the first point to each point."""
+        return np.concatenate([[0.0], np.cumsum(self.segment_lengths)])[: len(self._points)]
+
+    @cached_property
+    def _incoming_outgoing(self):
+        d = self.directions
+        if self._closed:
+            return np.roll(d, 1, axis=0), d
+        d_in = np.concatenate([d[:1], d])
+        d_out = np.concatenate([d, d[-1:]])
+        return d_in, d_out
+
+    @cached_property
+    def turning_angles(self):
+        """(N,) angle in radians between the incoming and outgoing segment at each point."""
+        d_in, d_out = self._incoming_outgoing
+        cos = np.einsum("ij,ij->i", d_in, d_out).clip(-1.0, 1.0)
+        return np.arccos(cos)
+
+    @cached_property
+    def tangents(self):
+        """(N, 3) unit tangents: the bisector of the adjacent segments at interior points.
+
+        A ring in the plane normal to the bisector is a miter joint, which keeps a
+        tube's full radius through a corner.
+        """
+        d_in, d_out = self._incoming_outgoing
+        folds = np.flatnonzero(self.turning_angles > np.pi - 1e-9)
+        if folds.size:
+            raise GeometryError(f"points: the path folds back on itself at point {folds[0]} "
+                                f"({self._points[folds[0]].tolist()}); remove the reversal")
+        return _unit(d_in + d_out)
+
+    @cached_property
+    def bend_directions(self):
+        """(N, 3) unit vector in each corner's plane, perpendicular to the tangent
+        (zero where the path is straight)."""
+        d_in, d_out = self._incoming_outgoing
+        bend = d_out - d_in
+        return np.where(self.turning_angles[:, None] > 1e-12, _unit(bend), 0.0)
+
+    # -- new paths -----------------------------------------------------------
+    def resample(self, step):
+        """Subdivide every segment into equal pieces no longer than ``step``.
+
+        Corners are kept, so a polyline keeps its shape exactly.
+        """
+        step = float(as_positive(step, "step"))
+        counts = np.maximum(np.ceil(self.segment_lengths / step).astype(np.int64), 1)
+        seg = np.repeat(np.arange(len(counts)), counts)
+        frac = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
+            np.repeat(counts, counts)
+        pts = self._points[seg] + frac[:, None] * self.segments[seg]
+        if not self._closed:
+            pts = np.vstack([pts, self._points[-1:]])
+        return Path(pts, closed=self._closed)
+
+    def fillet(self, bend_radius, max_angle=np.radians(5.0)):
+        """Round each corner with a circular arc of radius ``bend_radius``.
+
+        The arc is tangent to both segments and sampled every ``max_angle``
+        radians. Raises :class:`GeometryError` where the segments are too short
+        for the arc.
+        Returns the new path and, for each new point, the index of the point of
+        this path it came from (to carry per-point data such as radii across).
+        """
+        radius = float(as_positive(bend_radius, "bend_radius"))
+        alpha = self.turning_angles
+        corner = alpha > 1e-9
+        setback = np.where(corner, radius * np.tan(alpha / 2), 0.0)
+        before = np.roll(setback, -1) if self._closed else np.append(setback[1:], 0.0)
+        room = self.segment_lengths - setback[: len(self.segment_lengths)] - \
+            before[: len(self.segment_lengths)]
+        if (room < -1e-12 * max(self.length, 1.0)).any():
+            i = int(np.argmin(room))
+            raise GeometryError(
+                f"bend_radius={radius:g} does not fit between path points {i} and "
+                f"{(i + 1) % len(self)}: the segment is {self.segment_lengths[i]:.6g} long but "
+                f"the arcs need {setback[i] + before[i]:.6g}; use a smaller bend_radius")
+        d_in, d_out = self._incoming_outgoing
+        counts = np.where(corner, np.maximum(np.ceil(alpha / max_angle), 1).astype(np.int64) + 1, 1)
+        source = np.repeat(np.arange(len(self)), counts)
+        t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
+            np.repeat(np.maximum(counts - 1, 1), counts)
+        p = self._points[source]
+        a = p - setback[source, None] * d_in[source]          # arc start (tangent point)
+        b = p + setback[source, None] * d_out[source]         # arc end
+        # the centre lies along the inward normal of the incoming segment at the tangent point
+        inward = _unit(d_out[source] - np.einsum("ij,ij->i", d_out[source], d_in[source])[:, None]
+                       * d_in[source])
+        centre = a + radius * inward
+        al = alpha[source]
+        sin_al = np.sin(al)
+        safe = np.where(sin_al > 1e-12, sin_al, 1.0)
+        e0, e1 = a - centre, b - centre
+        w0 = np.where(sin_al > 1e-12, np.sin((1 - t) * al) / safe, 1 - t)
+        w1 = np.where(sin_al > 1e-12, np.sin(t * al) / safe, t)
+        arc = centre + w0[:, None] * e0 + w1[:, None] * e1
+        pts = np.where(corner[source][:, None], arc, p)
+        return Path(pts, closed=self._closed), source
+
+    def reversed(self):
+        return Path(self._points[::-1], closed=self._closed)
+
+    def transformed(self, matrix):
+        """The path moved by a 4x4 homogeneous matrix."""
+        m = np.asarray(matrix, dtype=np.float64)
+        if m.shape != (4, 4) or not np.isfinite(m).all():
+            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {m.shape}")
+        return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
+
+    # -- fitted curves -------------------------------------------------------
+    @classmethod
+    def spline(cls, points, step=None, *, tolerance=None, closed=False):
+        """Fit a cubic spline through ``points`` and discretize it.
+
+        The spline interpolates every control point (chord-length parameters; periodic
+        when ``closed``). Sampling is even in arc length with segments no longer than
+        ``step``, and denser where curvature needs it to keep the chordal deviation
+        below ``tolerance``. Without either, ``tolerance`` is 1e-4 of the control
+        polygon's extent.
+        """
+        from scipy.interpolate import CubicSpline, make_interp_spline
+
+        control = cls(points, closed=closed).points
+        if closed:
+            control = np.vstack([control, control[:1]])
+        chord = np.linalg.norm(np.diff(control, axis=0), axis=1)
+        u = np.concatenate([[0.0], np.cumsum(chord)])
+        if closed:
+            curve = CubicSpline(u, control, bc_type="periodic")
+        else:
+            curve = make_interp_spline(u, control, k=min(3, len(control) - 1))
+        if step is None and tolerance is None:
+            tolerance = 1e-4 * float(np.ptp(control, axis=0).max())
+        step = np.inf if step is None else float(as_positive(step, "step"))
+        tolerance = None if tolerance is None else float(as_positive(tolerance, "tolerance"))
+
+        # a dense table of arc length and curvature drives the final placement
+        dense_u = np.linspace(0.0, u[-1], 64 * len(control) + 1)
+        d1, d2 = curve(dense_u, 1), curve(dense_u, 2)
+        speed = np.linalg.norm(d1, axis=1)
+        curvature = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed, 1e-300) ** 3
+        density = np.full_like(speed, 1.0 / step)                 # points per unit length
+        if tolerance is not None:
+            density = np.maximum(density, np.sqrt(curvature / (8.0 * tolerance)))
+        du = np.diff(dense_u)
+        ds = 0.5 * (speed[1:] + speed[:-1]) * du
+        weight = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * ds)])
+        n_seg = max(int(np.ceil(weight[-1])), 3 if closed else 1)
+        target = np.linspace(0.0, weight[-1], n_seg + 1)
+        samples = curve(np.interp(target, weight, dense_u))
+        if closed:
+            samples = samples[:-1]
+        return cls(samples, closed=closed)

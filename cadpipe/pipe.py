@@ -1,0 +1,280 @@
+"""Steps S2-S4: a pipe of regular n-gon rings along a path, closed into a solid.
+
+A :class:`Pipe` is a description (path, radii, sides, caps, frame, ...); its
+:meth:`Pipe.mesh` builds the watertight, outward-facing triangle mesh. The
+pieces a splice needs (rings, frames) are public, so a transition between two
+pipes is built from the same rings the pipes themselves use.
+"""
+
+from functools import cached_property
+
+import numpy as np
+
+from . import clearance
+from ._validate import as_choice, as_int, as_positive
+from .errors import GeometryError, InputError
+from .frames import FRAME_MODES, frames
+from .loft import band_faces, fan_faces
+from .mesh import Mesh
+from .path import Path
+
+CAP_STYLES = ("flat", "round")
+CORNER_STYLES = ("miter", "round")
+MAX_SIDES = 4096
+
+
+def sides_for_tolerance(radius, tolerance):
+    """Fewest sides whose polygon stays within ``tolerance`` of a circle of ``radius``."""
+    ratio = 1.0 - float(tolerance) / float(radius)
+    if ratio <= -1.0:
+        return 3
+    return max(3, int(np.ceil(np.pi / np.arccos(max(ratio, -1.0)) - 1e-9)))
+
+
+def envelope_factor(sides):
+    """Circumradius over inradius of a regular polygon: ``1 / cos(pi / sides)``."""
+    return 1.0 / np.cos(np.pi / sides)
+
+
+class Pipe:
+    """A tube of regular ``sides``-gon rings along a path.
+
+    Parameters
+    ----------
+    path : Path or (N, 3) array_like
+    radius : float or (N,) array_like
+        Tube radius, or one per path point.
+    sides : int, optional
+        Vertices per ring (3 to 4096). Chosen from ``tolerance`` when omitted (16 when
+        neither is given).
+    caps : {"flat", "round"}
+        End caps of an open path; a closed path needs none.
+    envelope : bool
+        False: ring vertices on the circle (the polygon lies inside the round tube).
+        True: circumscribe it (circumradius ``r / cos(pi/sides)``), so the mesh
+        encloses the round tube, as a safety envelope must.
+    tolerance : float, optional
+        Chordal tolerance used to choose ``sides``.
+    frame : {"rmf", "patent"}
+        Rotation-minimizing frames (default) or the source's ``OP x L`` rule.
+    normal : (3,) array_like, optional
+        Direction of the first ring's vertex 0.
+    corners : {"miter", "round"}
+        Polyline corners as miter joints (full radius through the bend), or rounded
+        with arcs of ``bend_radius``.
+    bend_radius : float, optional
+        Fillet radius for ``corners="round"`` (default: twice the largest radius).
+    miter_limit : float
+        Largest allowed stretch ``1/cos(turn/2)`` of a mitered ring (default 4, as SVG).
+    cap_segments : int, optional
+        Latitude steps of a round cap (default ``max(2, sides // 4)``).
+    repair : bool
+        If the tube would intersect itself, build the solid as a manifold3d union of
+        its convex units instead of raising :class:`GeometryError`.
+    """
+
+    def __init__(self, path, radius, sides=None, *, caps="flat", envelope=False, tolerance=None,
+                 frame="rmf", normal=None, corners="miter", bend_radius=None, miter_limit=4.0,
+                 cap_segments=None, repair=False):
+        source = path if isinstance(path, Path) else Path(path)
+        radii = as_positive(radius, "radius", count=len(source))
+        self.caps = as_choice(caps, "caps", CAP_STYLES)
+        self.frame = as_choice(frame, "frame", FRAME_MODES)
+        self.corners = as_choice(corners, "corners", CORNER_STYLES)
+        self.envelope = bool(envelope)
+        self.repair = bool(repair)
+        self.normal = normal
+        self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
+        if self.miter_limit < 1.0:
+            raise InputError(f"miter_limit: must be >= 1, got {miter_limit}")
+        if sides is None:
+            if tolerance is None:
+                sides = 16
+            else:
+                tol = float(as_positive(tolerance, "tolerance"))
+                sides = sides_for_tolerance(radii.max(), tol)
+                if sides > MAX_SIDES:
+                    raise InputError(f"tolerance: {tol:g} needs {sides} sides, more than "
+                                     f"{MAX_SIDES}; use a larger tolerance")
+        self.sides = as_int(sides, "sides", low=3, high=MAX_SIDES)
+        self.cap_segments = as_int(max(2, self.sides // 4) if cap_segments is None
+                                   else cap_segments, "cap_segments", low=1, high=MAX_SIDES)
+        radii = np.broadcast_to(radii, (len(source),))
+        if self.corners == "round":
+            bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
+            self.bend_radius = float(as_positive(bend, "bend_radius"))
+            source, index = source.fillet(self.bend_radius)
+            radii = radii[index]
+        else:
+            self.bend_radius = None
+        self.path = source
+        self.radii = np.array(radii, dtype=np.float64)
+        self.radii.flags.writeable = False
+
+    def __repr__(self):
+        return (f"<cadpipe.Pipe {self.sides} sides, {len(self.path)} rings, "
+                f"radius {self.radii.min():.6g}..{self.radii.max():.6g}>")
+
+    @property
+    def closed(self):
+        return self.path.closed
+
+    @property
+    def ring_radii(self):
+        """(N,) distance of ring vertices from the axis (radius, or circumradius)."""
+        return self.radii * envelope_factor(self.sides) if self.envelope else self.radii
+
+    @cached_property
+    def _frames(self):
+        p = self.path
+        return frames(p.points, p.tangents, self.frame, closed=p.closed, normal=self.normal,
+                      symmetry=2 * np.pi / self.sides)
+
+    @property
+    def normals(self):
+        """(N, 3) unit direction of each ring's vertex 0 (before miter stretch)."""
+        return self._frames[0]
+
+    @property
+    def binormals(self):
+        return np.cross(self.path.tangents, self.normals)
+
+    @property
+    def seam_shift(self):
+        """Closed pipes: the last ring's vertex k joins the first ring's vertex k + shift."""
+        return self._frames[1]
+
+    @cached_property
+    def miter_stretch(self):
+        """(N,) factor ``1 / cos(turn / 2)`` by which each ring is stretched in its bend plane."""
+        return 1.0 / np.cos(self.path.turning_angles / 2)
+
+    def ring_axes(self):
+        """(N, 2, 3) vectors that map ``(cos a, sin a)`` to a ring vertex offset.
+
+        Each ring is the circle of ``ring_radii`` in the plane normal to the
+        tangent, stretched by :attr:`miter_stretch` along the bend direction so that
+        it lies on both adjacent segments' cylinders.
+        """
+        n, b = self.normals, self.binormals
+        m = self.path.bend_directions
+        extra = (self.miter_stretch - 1.0)[:, None]
+        n = n + extra * np.einsum("ij,ij->i", n, m)[:, None] * m
+        b = b + extra * np.einsum("ij,ij->i", b, m)[:, None] * m
+        r = self.ring_radii[:, None]
+        return np.stack([n * r, b * r], axis=1)
+
+    def rings(self):
+        """(N, sides, 3) ring vertices, counter-clockwise about the tangent."""
+        a = 2 * np.pi * np.arange(self.sides) / self.sides
+        axes = self.ring_axes()
+        return (self.path.points[:, None, :] + np.cos(a)[None, :, None] * axes[:, None, 0]
+                + np.sin(a)[None, :, None] * axes[:, None, 1])
+
+    def attributes(self):
+        """The parameters that made this pipe, for exporters' metadata."""
+        return {"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+                "radius_max": float(self.radii.max()), "path_length": self.path.length,
+                "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
+                "envelope": self.envelope, "frame": self.frame, "corners": self.corners}
+
+    # -- checks and mesh -----------------------------------------------------
+    def self_intersections(self):
+        """Where the tube would cut through itself: a list of human-readable findings.
+
+        Checks miter limits, rings that overlap within a segment (the radius exceeds
+        the local bend radius) and non-neighbouring parts of the tube closer than
+        the sum of their radii.
+        """
+        return clearance.tube_self_intersections(self)
+
+    def mesh(self):
+        """The closed, outward-oriented, watertight triangle mesh of this pipe.
+
+        Raises :class:`GeometryError` if the tube intersects itself, unless the pipe
+        was made with ``repair=True``.
+        """
+        problems = self.self_intersections()
+        if problems:
+            if not self.repair:
+                raise GeometryError(f"the pipe intersects itself: {problems[0]}"
+                                    + (f" (and {len(problems) - 1} more)" if len(problems) > 1
+                                       else "")
+                                    + "; smooth the path, reduce the radius, or pass repair=True")
+            return self._repaired_mesh()
+        vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
+        return Mesh(vertices, faces, attributes=self.attributes())
+
+    def surface(self, *, cap_start=True, cap_end=True):
+        """Vertices and faces of the side surface plus the requested end caps.
+
+        Vertices are the rings in travel order (a round start cap's rings first, a
+        round end cap's last), then the caps' poles. Without a cap, the first or last
+        ``sides`` vertices are that end's open ring: a splice stitches it to the next
+        piece.
+        """
+        rings = self.rings()
+        n = self.sides
+        if self.closed:
+            return rings.reshape(-1, 3), band_faces(len(rings), n, closed=True,
+                                                    seam_shift=self.seam_shift)
+        no_cap = (np.empty((0, n, 3)), None)
+        start_rings, start_pole = self._cap_rings(0, -1) if cap_start else no_cap
+        end_rings, end_pole = self._cap_rings(-1, +1) if cap_end else no_cap
+        all_rings = np.concatenate([start_rings[::-1], rings, end_rings])
+        vertices = [all_rings.reshape(-1, 3)]
+        faces = [band_faces(len(all_rings), n)]
+        count = len(all_rings) * n
+        ends = ((cap_start, start_pole, 0, False), (cap_end, end_pole, count - n, True))
+        for wanted, pole, ring, at_end in ends:
+            if not wanted:
+                continue
+            if pole is None:
+                faces.append(fan_faces(ring, n, at_end=at_end))
+            else:
+                vertices.append(pole[None])
+                faces.append(fan_faces(ring, n, apex=count, at_end=at_end))
+                count += 1
+        return np.concatenate(vertices), np.concatenate(faces)
+
+    def _cap_rings(self, index, sign):
+        """A flat cap: ``(empty, None)``. A round cap: its latitude rings past the end
+        ring (outward from the tube) and its pole."""
+        if self.caps == "flat":
+            return np.empty((0, self.sides, 3)), None
+        m = self.cap_segments
+        lat = (np.pi / 2) * np.arange(1, m) / m
+        centre = self.path.points[index]
+        tangent = self.path.tangents[index] * sign
+        axes = self.ring_axes()[index]
+        scale = 1.0 / np.cos(np.pi / (4 * m)) if self.envelope else 1.0
+        a = 2 * np.pi * np.arange(self.sides) / self.sides
+        circle = np.cos(a)[:, None] * axes[0] + np.sin(a)[:, None] * axes[1]     # (sides, 3)
+        radius = self.ring_radii[index] * scale
+        rings = (centre + (scale * np.cos(lat))[:, None, None] * circle[None]
+                 + (radius * np.sin(lat))[:, None, None] * tangent)
+        return rings, centre + radius * tangent
+
+    def units(self):
+        """Convex pieces whose union is the tube: each path unit, plus round caps.
+
+        Each unit is the point set of two consecutive rings (their convex hull is the
+        unit); a round cap is its rings and pole. Used for repair and collision.
+        """
+        rings = self.rings()
+        nxt = np.roll(np.arange(len(rings)), -1) if self.closed else np.arange(1, len(rings))
+        pieces = [np.concatenate([rings[i], rings[j]]) for i, j in
+                  zip(range(len(nxt)), nxt)]
+        if not self.closed and self.caps == "round":
+            for index, sign in ((0, -1), (-1, 1)):
+                cap_rings, pole = self._cap_rings(index, sign)
+                pieces.append(np.concatenate([rings[index], cap_rings.reshape(-1, 3), pole[None]]))
+        return pieces
+
+    def _repaired_mesh(self):
+        """Union of the convex units through manifold3d: valid even where the tube folds."""
+        import manifold3d
+
+        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units()]
+        solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
+        return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})
