@@ -234,7 +234,9 @@ class Path:
         dense_u = np.linspace(0.0, u[-1], 64 * len(control) + 1)
         d1, d2 = curve(dense_u, 1), curve(dense_u, 2)
         speed = np.linalg.norm(d1, axis=1)
-        curvature = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed, 1e-300) ** 3
+        # a cusp (zero speed) has no curvature to resolve: sample it at the base density
+        curvature = np.divide(np.linalg.norm(np.cross(d1, d2), axis=1), speed ** 3,
+                              out=np.zeros_like(speed), where=speed > 1e-12 * speed.max())
         density = np.full_like(speed, 1.0 / step)                 # points per unit length
         if tolerance is not None:
             density = np.maximum(density, np.sqrt(curvature / (8.0 * tolerance)))
