@@ -12,6 +12,7 @@ import numpy as np
 
 from . import clearance
 from ._validate import as_choice, as_int, as_positive
+from ._vec import dot
 from .errors import GeometryError, InputError
 from .frames import FRAME_MODES, frames
 from .loft import band_face_count, band_faces, fan_faces
@@ -159,8 +160,8 @@ class Pipe:
         n, b = self.normals, self.binormals
         m = self.path.bend_directions
         extra = (self.miter_stretch - 1.0)[:, None]
-        n = n + extra * np.einsum("ij,ij->i", n, m)[:, None] * m
-        b = b + extra * np.einsum("ij,ij->i", b, m)[:, None] * m
+        n = n + extra * dot(n, m)[:, None] * m
+        b = b + extra * dot(b, m)[:, None] * m
         r = self.ring_radii[:, None]
         return np.stack([n * r, b * r], axis=1)
 
