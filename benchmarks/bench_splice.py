@@ -31,7 +31,8 @@ def main():
         start = time.perf_counter()
         mesh = cadpipe.splice(*pipes, transition=mode)
         sec = time.perf_counter() - start
-        print(f"{mode:12} {sec:8.3f} {len(mesh.vertices):10,} {len(mesh.vertices) / sec / 1e6:8.2f} "
+        rate = len(mesh.vertices) / sec / 1e6
+        print(f"{mode:12} {sec:8.3f} {len(mesh.vertices):10,} {rate:8.2f} "
               f"{str(mesh.is_watertight):>10}")
 
 

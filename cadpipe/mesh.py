@@ -61,7 +61,8 @@ class Mesh:
             if face_part.shape != (len(faces),):
                 raise InputError(f"face_part: expected {len(faces)} part indices, "
                                  f"got shape {face_part.shape}")
-            if face_part.size and not 0 <= face_part.min() <= face_part.max() < len(self._part_names):
+            names = len(self._part_names)
+            if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
                 raise InputError("face_part: indices must point into part_names")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
