@@ -3,33 +3,59 @@
 Three ways a swept tube folds: a corner sharper than the miter limit, rings that
 overlap within one segment (the radius exceeds the local bend radius), and two
 parts of the tube that are far apart along the path but closer in space than the
-sum of their radii. All three are vectorized over the path.
+sum of their radii. All three run over a whole batch of tubes at once
+(:class:`~cadpipe.tubes.Tubes`): one pass over all points, one KD-tree over all
+samples.
 """
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ._vec import dot, norm
+from .ragged import Groups
+
+#: findings reported per tube and kind of fold
+MAX_FINDINGS = 10
 
 
-def tube_self_intersections(pipe):
-    """Findings (strings naming path points and arc lengths) for ``pipe``; empty if none."""
-    return _miter_limit(pipe) or _local_overlaps(pipe) or _distant_overlaps(pipe)
+def tube_self_intersections(tubes):
+    """Per tube, findings (strings naming path points and arc lengths); empty if none.
+
+    A tube's findings all come from the first check that finds anything for it:
+    miter limits, then local overlaps, then distant ones; at most
+    :data:`MAX_FINDINGS` each.
+    """
+    findings = [[] for _ in range(len(tubes.groups))]
+    for check in (_miter_limit, _local_overlaps, _distant_overlaps):
+        tube, describe = check(tubes)         # hits in path order, so tube is sorted
+        rank = np.arange(len(tube)) - np.searchsorted(tube, tube)
+        fresh = np.array([not f for f in findings], bool)[tube]
+        for hit in np.flatnonzero(fresh & (rank < MAX_FINDINGS)).tolist():
+            findings[tube[hit]].append(describe(hit))
+    return findings
 
 
-def _where(path, i):
-    return f"path point {i} at arc length {path.arc_length[i]:.6g}"
+def _where(lines, row):
+    local = row - lines.groups.first[lines.groups.index[row]]
+    return f"path point {local} at arc length {lines.arc_length[row]:.6g}"
 
 
-def _miter_limit(pipe):
-    bad = np.flatnonzero(pipe.miter_stretch > pipe.miter_limit)
-    path = pipe.path
-    return [f"{_where(path, i)}: a {np.degrees(path.turning_angles[i]):.1f} degree corner needs "
-            f"a miter stretch of {pipe.miter_stretch[i]:.3g} > miter_limit={pipe.miter_limit:g} "
-            "(use corners='round' or a larger miter_limit)" for i in bad[:10]]
+def _miter_limit(tubes):
+    lines = tubes.lines
+    stretch = tubes.miter_stretch
+    limit = tubes.miter_limit[lines.groups.index]
+    bad = np.flatnonzero(stretch > limit)
+
+    def describe(hit):
+        i = bad[hit]
+        return (f"{_where(lines, i)}: a {np.degrees(lines.turning_angles[i]):.1f} degree "
+                f"corner needs a miter stretch of {stretch[i]:.3g} > miter_limit={limit[i]:g} "
+                "(use corners='round' or a larger miter_limit)")
+
+    return lines.groups.index[bad], describe
 
 
-def _local_overlaps(pipe):
+def _local_overlaps(tubes):
     """Within a segment, the two end rings' planes must not meet inside the tube.
 
     Across segment j (direction d, length L), the ring plane at each end sits at an
@@ -37,68 +63,118 @@ def _local_overlaps(pipe):
     across d divided by its part along d. The planes meet inside a tube of radius
     rho exactly when ``rho * |g_start - g_end| >= L``.
     """
-    path = pipe.path
-    d = path.directions
-    j = np.arange(len(d))
-    k = (j + 1) % len(path)
-    t = path.tangents
+    lines = tubes.lines
+    groups = lines.groups
+    d = lines.directions
+    t = lines.tangents
 
     def g(tangent):
         along = dot(tangent, d)
         return -(tangent - along[:, None] * d) / along[:, None]
 
-    spread = norm(g(t[j]) - g(t[k]))
-    rho = np.maximum(pipe.ring_radii[j], pipe.ring_radii[k])
-    bad = np.flatnonzero(rho * spread >= path.segment_lengths * (1 - 1e-9))
-    return [f"{_where(path, i)}: radius {pipe.ring_radii[i]:.6g} exceeds the local bend radius "
-            f"(about {path.segment_lengths[i] / spread[i]:.6g})" for i in bad[:10]]
+    rho = tubes.ring_radii
+    with np.errstate(divide="ignore", invalid="ignore"):    # folds: found by _miter_limit
+        spread = norm(g(t) - g(groups.following(t)))
+    is_segment = np.ones(len(t), bool)
+    is_segment[groups.last] = groups.closed
+    bad = np.flatnonzero(is_segment & (np.maximum(rho, groups.following(rho)) * spread
+                                       >= lines.segment_lengths * (1 - 1e-9)))
+
+    def describe(hit):
+        i = bad[hit]
+        return (f"{_where(lines, i)}: radius {rho[i]:.6g} exceeds the local bend radius "
+                f"(about {lines.segment_lengths[i] / spread[i]:.6g})")
+
+    return groups.index[bad], describe
 
 
-def _distant_overlaps(pipe):
+def _samples(tubes, step):
+    """Points and radii every ``step`` (per tube) along each tube's path.
+
+    Returns the sample groups, their positions, arc lengths, radii and the rows of
+    the path segments they lie on.
+    """
+    lines = tubes.lines
+    groups = lines.groups
+    closed = groups.closed
+    length = lines.lengths
+    count = np.maximum(np.ceil(length / step).astype(np.int64), 2)
+    samples = Groups(count, closed)
+    k = samples.local()
+    s = k * samples.spread(length / np.where(closed, count, count - 1))
+    s[samples.last[~closed]] = length[~closed]                 # as np.linspace does
+    # the segment each sample lies on: sort samples among path points, tube by tube
+    offset = np.concatenate([[0.0], np.cumsum(length + 1.0)])[:-1]
+    row = np.searchsorted(lines.arc_length + groups.spread(offset), s + samples.spread(offset),
+                          side="right") - 1
+    last_segment = np.where(closed, groups.last, groups.last - 1)
+    row = np.clip(row, samples.spread(groups.first), samples.spread(last_segment))
+    frac = (s - lines.arc_length[row]) / lines.segment_lengths[row]
+    points = lines.points[row] + frac[:, None] * lines.segments[row]
+    rho = tubes.ring_radii
+    radii = rho[row] + frac * (groups.following(rho)[row] - rho[row])
+    return samples, points, s, radii, row
+
+
+def _distant_overlaps(tubes):
     """Pairs of path samples closer than their radii where the distance along the
     path has a local minimum (a chord across the tube, not along it).
 
-    Samples every quarter of the smallest radius keep the detection error to a few
-    thousandths of the radius.
+    Samples every quarter of each tube's smallest radius keep the detection error to
+    a few thousandths of the radius. One KD-tree holds every tube's samples, each
+    tube scaled by its largest diameter and laid apart from the others, so a
+    single query radius finds each tube's own close pairs and no pairs between tubes.
     """
-    path = pipe.path
-    rho = pipe.ring_radii
-    step = 0.25 * float(rho.min())
-    closed = path.closed
-    s_pts = np.append(path.arc_length, path.length) if closed else path.arc_length
-    count = max(int(np.ceil(path.length / step)), 2)
-    s = np.linspace(0.0, path.length, count, endpoint=not closed)
-    pts_ext = np.vstack([path.points, path.points[:1]]) if closed else path.points
-    rho_ext = np.append(rho, rho[0]) if closed else rho
-    samples = np.stack([np.interp(s, s_pts, pts_ext[:, c]) for c in range(3)], axis=1)
-    r = np.interp(s, s_pts, rho_ext)
-    pairs = cKDTree(samples).query_pairs(2.0 * float(rho.max()), output_type="ndarray")
-    if len(pairs) == 0:
-        return []
+    lines = tubes.lines
+    groups = lines.groups
+    rho = tubes.ring_radii
+    reach = 2.0 * np.maximum.reduceat(rho, groups.first)      # the farthest a pair can reach
+    step = 0.25 * np.minimum.reduceat(rho, groups.first)
+    samples, points, s, radii, _ = _samples(tubes, step)
+    scaled = points / samples.spread(reach)[:, None]
+    low = np.minimum.reduceat(scaled[:, 0], samples.first)
+    high = np.maximum.reduceat(scaled[:, 0], samples.first)
+    apart = np.concatenate([[0.0], np.cumsum(high - low + 2.0)])[:-1] - low
+    scaled[:, 0] += samples.spread(apart)
+    pairs = cKDTree(scaled).query_pairs(1.0 + 1e-9, output_type="ndarray")
     i, j = pairs[:, 0], pairs[:, 1]
-    dist = norm(samples[i] - samples[j])
-    close = dist < r[i] + r[j]
-    i, j, dist = i[close], j[close], dist[close]
-    n = len(samples)
-    local_min = np.ones(len(i), bool)
-    for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
-        ii, jj = i + di, j + dj
-        if closed:
-            ii, jj = ii % n, jj % n
-            valid = np.ones(len(i), bool)
-        else:
-            valid = (ii >= 0) & (ii < n) & (jj >= 0) & (jj < n)
-        ii, jj = ii.clip(0, n - 1), jj.clip(0, n - 1)
-        other = norm(samples[ii] - samples[jj])
-        local_min &= ~valid | (other >= dist)
+    tube = samples.index[i]
+    length = lines.lengths[tube]
     gap = np.abs(s[i] - s[j])
-    if closed:
-        gap = np.minimum(gap, path.length - gap)
-    hits = np.flatnonzero(local_min & (gap > 2.0 * step))
-    out = []
-    for h in hits[:10]:
-        a = int(np.searchsorted(path.arc_length, s[i[h]], side="right") - 1)
-        b = int(np.searchsorted(path.arc_length, s[j[h]], side="right") - 1)
-        out.append(f"{_where(path, a)} and {_where(path, b)}: the tube passes within "
-                   f"{dist[h]:.6g} of itself, less than its radii {r[i[h]]:.6g} + {r[j[h]]:.6g}")
-    return out
+    gap = np.where(samples.closed[tube], np.minimum(gap, length - gap), gap)
+    keep = np.flatnonzero(gap > 2.0 * step[tube])
+    i, j = i[keep], j[keep]
+    dist = norm(points[i] - points[j])
+    keep = np.flatnonzero(dist < radii[i] + radii[j])
+    i, j, dist = i[keep], j[keep], dist[keep]
+    # a local minimum over the sample grid; (i + 1, j) first: it rules out most pairs
+    first, count = samples.first, samples.counts
+    for di, dj in ((1, 0), (-1, 0), (0, -1), (0, 1)):
+        tube = samples.index[i]
+        start, n = first[tube], count[tube]
+        ii, jj = i + di - start, j + dj - start
+        closed = samples.closed[tube]
+        valid = closed | ((ii >= 0) & (ii < n) & (jj >= 0) & (jj < n))
+        ii, jj = start + ii % n, start + jj % n
+        keep = np.flatnonzero(~valid | (norm(points[ii] - points[jj]) >= dist))
+        i, j, dist = i[keep], j[keep], dist[keep]
+    order = np.lexsort((j, i))
+    i, j, dist = i[order], j[order], dist[order]
+    tube = samples.index[i]
+
+    def point_at(sample):
+        """The path point starting the segment a sample lies on."""
+        first, last = groups.first[tube_of(sample)], groups.last[tube_of(sample)]
+        return first + int(np.searchsorted(lines.arc_length[first:last + 1], s[sample],
+                                           side="right")) - 1
+
+    def tube_of(sample):
+        return samples.index[sample]
+
+    def describe(hit):
+        a, b = i[hit], j[hit]
+        return (f"{_where(lines, point_at(a))} and {_where(lines, point_at(b))}: the tube "
+                f"passes within {dist[hit]:.6g} of itself, less than its radii "
+                f"{radii[a]:.6g} + {radii[b]:.6g}")
+
+    return tube, describe

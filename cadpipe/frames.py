@@ -1,10 +1,11 @@
-"""Frames along a path: the direction each ring's first vertex points to.
+"""Frames along paths: the direction each ring's first vertex points to.
 
 The default is the rotation-minimizing frame of Wang et al. (2008, "double
 reflection"), which does not twist. Each step's double reflection is a rotation
 that does not depend on the frame it moves, so the frame's angle against a local
 reference is a cumulative sum of per-step angles: the whole frame comes from
-vectorized numpy, with no loop over path points.
+vectorized numpy, with no loop over path points, and a batch of paths is one
+running sum restarted at each path's first point (:class:`~cadpipe.ragged.Groups`).
 
 The source document's rule, ``unit(OP x L)``, is kept as ``frame="patent"`` for
 comparison; it twists and is undefined where a tangent points at the origin.
@@ -16,6 +17,19 @@ from ._vec import cross, dot, norm, unit
 from .errors import InputError
 
 FRAME_MODES = ("rmf", "patent")
+
+#: stands for "no direction given" in a batch's (G, 3) array of directions
+NO_DIRECTION = np.full(3, np.nan)
+
+
+def as_direction(value, name):
+    """``value`` as 3 finite floats, or :data:`NO_DIRECTION` for None."""
+    if value is None:
+        return NO_DIRECTION
+    v = np.asarray(value, dtype=np.float64)
+    if v.shape != (3,) or not np.isfinite(v).all():
+        raise InputError(f"{name}: expected 3 finite numbers, got {value!r}")
+    return v
 
 
 def _reference(tangents):
@@ -33,107 +47,116 @@ def _reflect(v, normal, normal_sq):
     return v - factor[:, None] * normal
 
 
-def _step_angles(points, tangents, u, w, closed):
-    """Angle each double-reflection step turns the reference ``u`` by, against the next ``u``."""
-    def following(a):
-        return np.roll(a, -1, axis=0) if closed else a[1:]
-
-    def current(a):
-        return a if closed else a[:-1]
-
-    v1 = following(points) - current(points)
+def _turns(v1, t, t_next, u, u_next, w_next):
+    """Angle the double reflection along segment ``v1`` turns ``u`` by, against ``u_next``."""
     c1 = dot(v1, v1)
-    v2 = following(tangents) - _reflect(current(tangents), v1, c1)
-    moved = _reflect(_reflect(current(u), v1, c1), v2, dot(v2, v2))
-    return np.arctan2(dot(moved, following(w)), dot(moved, following(u)))
+    v2 = t_next - _reflect(t, v1, c1)
+    moved = _reflect(_reflect(u, v1, c1), v2, dot(v2, v2))
+    return np.arctan2(dot(moved, w_next), dot(moved, u_next))
 
 
-def _angle_in_plane(vector, tangent, u, w, name):
-    """Angle of ``vector`` (projected across ``tangent``) against the reference ``u``."""
-    v = np.asarray(vector, dtype=np.float64)
-    if v.shape != (3,) or not np.isfinite(v).all():
-        raise InputError(f"{name}: expected 3 finite numbers, got {vector!r}")
-    across = v - tangent * (v @ tangent)
-    if np.linalg.norm(across) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
+def _step_angles(lines, t, u, w):
+    """(N,) angle of each step, from each point to the next on its path.
+
+    Rows are paired with the following row in one pass; each path's last row (its
+    closing step, or nothing for an open path) is then redone with the right partner.
+    """
+    v1 = lines.segments
+    delta = np.empty(len(t))
+    delta[:-1] = _turns(v1[:-1], t[:-1], t[1:], u[:-1], u[1:], w[1:])
+    last = lines.groups.last
+    nxt = lines.groups.wrap(last)
+    delta[last] = _turns(v1[last], t[last], t[nxt], u[last], u[nxt], w[nxt])
+    return delta
+
+
+def _angles_in_plane(vectors, tangents, u, w, name):
+    """Angle of each vector (projected across its tangent) against ``u``; NaN where
+    no vector is given."""
+    across = vectors - tangents * dot(vectors, tangents)[:, None]
+    parallel = norm(across) <= 1e-9 * np.maximum(norm(vectors), 1e-300)
+    if parallel.any():
         raise InputError(f"{name}: is parallel to the path's tangent there; "
                          "give a direction across the path")
-    return float(np.arctan2(across @ w, across @ u))
+    return np.arctan2(dot(across, w), dot(across, u))
 
 
-def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, end_normal=None,
-                               symmetry=None):
-    """Twist-free unit normals along a discretized curve.
+def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, symmetry=None):
+    """Unit normals (ring vertex 0 directions) along a batch of paths, and seam shifts.
 
     Parameters
     ----------
-    points, tangents : (N, 3) arrays
-        Curve points and unit tangents.
-    closed : bool
-        For a loop, the mismatch at the seam (the holonomy) is spread evenly by arc
-        length so the frame closes; only the part of it beyond a multiple of
-        ``symmetry`` (e.g. ``2*pi/sides`` for a regular n-gon ring) is spread.
-    normal : (3,) array_like, optional
-        Initial normal (projected into the first normal plane).
-    end_normal : (3,) array_like, optional
-        For an open curve, the normal the last frame must match up to ``symmetry``;
-        the twist that needs is spread evenly by arc length, as for a loop's seam.
-    symmetry : float, optional
-        Angle by which a ring is symmetric. Defaults to a full turn.
+    lines : Polylines
+        The paths (points, segments, arc lengths) and their groups.
+    tangents : (N, 3) array
+        Unit tangents.
+    patent : bool or (G,) array of bool
+        Paths that use the source's ``OP x L`` rule instead of rotation-minimizing
+        frames; it cannot match a seam or an end normal.
+    normals, end_normals : (G, 3) arrays, optional
+        Per path, the direction the first ring's vertex 0 takes (projected into the
+        normal plane), and the direction the last ring's vertex 0 must take up to
+        ``symmetry``; :data:`NO_DIRECTION` rows for none. The twist an end normal (or
+        a closed path's holonomy) needs is spread evenly by arc length; only the part
+        of it beyond a multiple of ``symmetry`` is spread.
+    symmetry : float or (G,) array, optional
+        Angle by which each path's ring is symmetric (``2*pi/sides``); a full turn
+        by default.
 
     Returns
     -------
     normals : (N, 3) array
-    seam_shift : int
-        Whole ``symmetry`` steps left at the far end: the last ring's vertex k meets
-        vertex ``k + seam_shift`` of the ring it must match (the first ring of a
-        loop, or the ring whose vertex 0 points along ``end_normal``).
+    seam_shift : (G,) int array
+        Whole ``symmetry`` steps left at each path's far end: the last ring's vertex k
+        meets vertex ``k + seam_shift`` of the ring it must match (the first ring of a
+        loop, or the ring whose vertex 0 points along its end normal).
     """
+    g = lines.groups
+    count = len(g)
+    patent = np.broadcast_to(np.asarray(patent, dtype=bool), (count,))
+    normals = np.tile(NO_DIRECTION, (count, 1)) if normals is None else normals
+    end_normals = np.tile(NO_DIRECTION, (count, 1)) if end_normals is None else end_normals
+    symmetry = np.broadcast_to(2 * np.pi if symmetry is None else symmetry, (count,))
+    ends = ~np.isnan(end_normals[:, 0])
+    if (patent & (g.closed | ends)).any():
+        raise InputError("frame='patent' cannot match a seam or an end_normal; "
+                         "use frame='rmf'")
+    first, last = g.first, g.last
     u, w = _reference(tangents)
-    phi0 = 0.0 if normal is None else _angle_in_plane(normal, tangents[0], u[0], w[0], "normal")
-    delta = _step_angles(points, tangents, u, w, closed)
-    phi = phi0 + np.concatenate([[0.0], np.cumsum(delta[: len(points) - 1])])
-    if not closed and end_normal is None:
-        return np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w, 0
-    arc = np.concatenate([[0.0], np.cumsum(norm(np.diff(points, axis=0)))])
-    if closed:
-        mismatch = -float(delta.sum())
-        total = arc[-1] + np.linalg.norm(points[0] - points[-1])
-    else:
-        target = _angle_in_plane(end_normal, tangents[-1], u[-1], w[-1], "end_normal")
-        mismatch = target - phi[-1]
-        total = arc[-1]
-    symmetry = 2 * np.pi if symmetry is None else float(symmetry)
-    steps = int(np.round(mismatch / symmetry))
-    phi = phi + (mismatch - steps * symmetry) * arc / total
-    return np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w, -steps
+    starts = ~np.isnan(normals[:, 0]) & ~patent
+    phi0 = np.zeros(count)
+    if starts.any():
+        phi0[starts] = _angles_in_plane(normals[starts], tangents[first[starts]],
+                                        u[first[starts]], w[first[starts]], "normal")
+    delta = _step_angles(lines, tangents, u, w)
+    phi = g.spread(phi0) + g.exclusive_cumsum(delta)
+    shift = np.zeros(count, np.int64)
+    adjust = g.closed | ends
+    if adjust.any():
+        mismatch = np.zeros(count)
+        mismatch[g.closed] = -g.sums(delta)[g.closed]
+        if ends.any():
+            target = _angles_in_plane(end_normals[ends], tangents[last[ends]], u[last[ends]],
+                                      w[last[ends]], "end_normal")
+            mismatch[ends] = target - phi[last[ends]]
+        steps = np.round(mismatch / symmetry)
+        excess = np.where(adjust, mismatch - steps * symmetry, 0.0)
+        total = np.where(adjust, lines.lengths, 1.0)
+        phi = phi + g.spread(excess) * lines.arc_length / g.spread(total)
+        shift = -steps.astype(np.int64)
+    out = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w
+    if patent.any():
+        rows = patent[g.index]
+        out[rows] = _patent_normals(lines.points[rows], tangents[rows], out[rows])
+    return out, shift
 
 
-def patent_frames(points, tangents):
+def _patent_normals(points, tangents, fallback):
     """The source's rule: the first ring vertex points along ``unit(OP x L)``.
 
     Where ``OP x L`` vanishes (the tangent points at or away from the origin, or P
-    is the origin) the rotation-minimizing normal is used instead.
+    is the origin) the rotation-minimizing normal ``fallback`` is used instead.
     """
     normals = cross(points, tangents)
-    size = norm(normals)
-    scale = np.maximum(norm(points), 1.0)
-    bad = size <= 1e-9 * scale
-    normals = unit(normals)
-    if bad.any():
-        fallback, _ = rotation_minimizing_frames(points, tangents)
-        normals[bad] = fallback[bad]
-    return normals
-
-
-def frames(points, tangents, mode="rmf", *, closed=False, normal=None, end_normal=None,
-           symmetry=None):
-    """Normals for ``mode`` (``"rmf"`` or ``"patent"``), and the seam shift."""
-    if mode == "rmf":
-        return rotation_minimizing_frames(points, tangents, closed=closed, normal=normal,
-                                          end_normal=end_normal, symmetry=symmetry)
-    if mode == "patent":
-        if closed or end_normal is not None:
-            raise InputError("frame='patent' cannot match a seam or an end_normal; "
-                             "use frame='rmf'")
-        return patent_frames(points, tangents), 0
-    raise InputError(f"frame: expected one of {FRAME_MODES}, got {mode!r}")
+    bad = norm(normals) <= 1e-9 * np.maximum(norm(points), 1.0)
+    return np.where(bad[:, None], fallback, unit(normals))

@@ -4,7 +4,11 @@ Rings are stored one after another in a vertex array, ``sides`` vertices each,
 counter-clockwise about the direction of travel. The functions here only make
 face index arrays, so every surface built from rings (pipe sides, caps, splice
 transitions) shares one orientation rule: faces point away from the axis.
+:class:`Surface` lays a surface's blocks out and writes them straight into one
+vertex and one face array.
 """
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -21,13 +25,13 @@ def band_faces(n_rings, sides, *, closed=False, seam_shift=0, first=0, out=None)
     k1 = (k + 1) % sides
     # one band between ring 0 and ring 1: quads (a, b, d, c) as triangles (a,b,c), (b,d,c)
     tri = np.stack([np.stack([k, k1, k + sides], 1), np.stack([k1, k1 + sides, k + sides], 1)],
-                   1).reshape(-1, 3) + first
+                   1).reshape(1, -1) + first
     n_bands = n_rings - 1
     if out is None:
         out = np.empty((band_face_count(n_rings, sides, closed), 3), np.int64)
-    offsets = np.arange(n_bands, dtype=np.int64) * sides
-    np.add(offsets[:, None, None], tri[None], out=out[: n_bands * 2 * sides].reshape(n_bands,
-                                                                                    2 * sides, 3))
+    # every band is the first one shifted by whole rings: one broadcast add, rows of 6*sides
+    offsets = np.arange(0, n_bands * sides, sides, dtype=np.int64)
+    np.add(offsets[:, None], tri, out=out[: n_bands * 2 * sides].reshape(n_bands, -1))
     if closed:
         last = (n_rings - 1) * sides + first
         ks = (k + seam_shift) % sides + first
@@ -56,16 +60,10 @@ def fan_faces(ring_start, sides, *, apex=None, at_end=False):
     return tri if at_end else tri[:, ::-1]
 
 
-def zipper_faces(a_start, n_a, b_start, n_b, b_offset=0):
-    """Faces joining ring A (upstream) to ring B (downstream) of any sizes.
-
-    Vertex ``i`` of A sits at angle ``2*pi*i/n_a`` and vertex ``j`` of B at
-    ``2*pi*(j + b_offset)/n_b`` about the common axis. Walking both rings in angle
-    order, each A edge gets one triangle to the current B vertex and each B edge one
-    to the current A vertex: ``n_a + n_b`` triangles, every vertex used. When
-    ``n_b`` is a multiple of ``n_a`` and the rings are aligned, this is the source's
-    n-to-1 stitch: each A vertex fans over ``n_b / n_a`` B edges.
-    """
+@lru_cache(maxsize=4096)
+def _zipper_pattern(n_a, n_b, b_offset):
+    """:func:`zipper_faces` for one ring pair, ring A numbered ``0..n_a-1`` and ring B
+    ``n_a..n_a+n_b-1``."""
     mid_a = (np.arange(n_a) + 0.5) / n_a
     mid_b = ((np.arange(n_b) + 0.5 + b_offset) / n_b) % 1.0
     first_b = int(np.argmin(mid_b))                   # the B vertex current at angle 0
@@ -75,7 +73,83 @@ def zipper_faces(a_start, n_a, b_start, n_b, b_offset=0):
     is_a = is_a[order]
     a_cur = np.cumsum(is_a) - is_a                    # A edges passed before each event
     b_cur = np.cumsum(~is_a) - ~is_a
-    a0, a1 = a_start + a_cur % n_a, a_start + (a_cur + 1) % n_a
-    b0 = b_start + (first_b + b_cur) % n_b
-    b1 = b_start + (first_b + b_cur + 1) % n_b
-    return np.where(is_a[:, None], np.stack([a0, a1, b0], 1), np.stack([a0, b1, b0], 1))
+    a0, a1 = a_cur % n_a, (a_cur + 1) % n_a
+    b0 = n_a + (first_b + b_cur) % n_b
+    b1 = n_a + (first_b + b_cur + 1) % n_b
+    faces = np.where(is_a[:, None], np.stack([a0, a1, b0], 1), np.stack([a0, b1, b0], 1))
+    faces.flags.writeable = False
+    return faces
+
+
+def zipper_faces(a_start, n_a, b_start, n_b, b_offset):
+    """Faces joining each ring A (upstream) to its ring B (downstream), of any sizes.
+
+    All arguments are ``(Z,)`` arrays, one entry per ring pair. Vertex ``i`` of A
+    sits at angle ``2*pi*i/n_a`` and vertex ``j`` of B at ``2*pi*(j + b_offset)/n_b``
+    about the common axis. Walking both rings in angle order, each A edge gets one
+    triangle to the current B vertex and each B edge one to the current A vertex:
+    ``n_a + n_b`` triangles per pair, every vertex used. When ``n_b`` is a multiple
+    of ``n_a`` and the rings are aligned, this is the source's n-to-1 stitch: each A
+    vertex fans over ``n_b / n_a`` B edges. Pairs of equal sizes and offset share one
+    pattern, so a chain of a thousand stitches costs a few numpy calls.
+    """
+    n_a, n_b = np.asarray(n_a), np.asarray(n_b)
+    local = np.concatenate([_zipper_pattern(*key) for key in
+                            zip(n_a.tolist(), n_b.tolist(), np.asarray(b_offset).tolist())])
+    sizes = n_a + n_b
+    in_b = local >= np.repeat(n_a, sizes)[:, None]
+    return local + np.where(in_b, np.repeat(np.asarray(b_start) - n_a, sizes)[:, None],
+                            np.repeat(a_start, sizes)[:, None])
+
+
+class Surface:
+    """A triangle surface laid out block by block, then written in one pass.
+
+    Each block reserves its rows now and gives a function that fills them later,
+    so a surface of millions of vertices is written straight into its final
+    arrays, with no concatenation. Face blocks may carry a part label (an index
+    into :attr:`part_names`), as a splice's pipes and transitions do.
+    """
+
+    def __init__(self):
+        self.vertex_count = 0
+        self.face_count = 0
+        self.part_names = []
+        self._vertex_blocks = []
+        self._face_blocks = []
+
+    def add_vertices(self, count, fill):
+        """Reserve ``count`` vertices; ``fill(out)`` writes their ``(count, 3)`` rows.
+        Returns the index of the first one."""
+        first = self.vertex_count
+        self._vertex_blocks.append((first, count, fill))
+        self.vertex_count += count
+        return first
+
+    def add_faces(self, count, fill, part=None):
+        """Reserve ``count`` faces; ``fill(out)`` writes their ``(count, 3)`` rows.
+        ``part``: a part name, or a ``(count,)`` array of indices into ``part_names``."""
+        if isinstance(part, str):
+            part = self.part(part)
+        self._face_blocks.append((self.face_count, count, fill, part))
+        self.face_count += count
+
+    def part(self, name):
+        """The index of part ``name`` (added if new)."""
+        if name not in self.part_names:
+            self.part_names.append(name)
+        return self.part_names.index(name)
+
+    def build(self):
+        """``(vertices, faces, face_part)``; ``face_part`` is None when no block has a part."""
+        vertices = np.empty((self.vertex_count, 3))
+        faces = np.empty((self.face_count, 3), np.int64)
+        labelled = any(part is not None for *_, part in self._face_blocks)
+        face_part = np.empty(self.face_count, np.int32) if labelled else None
+        for first, count, fill in self._vertex_blocks:
+            fill(vertices[first:first + count])
+        for first, count, fill, part in self._face_blocks:
+            fill(faces[first:first + count])
+            if labelled:
+                face_part[first:first + count] = part
+        return vertices, faces, face_part

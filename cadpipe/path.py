@@ -4,6 +4,9 @@ A :class:`Path` is an immutable ``(N, 3)`` polyline, open or closed. Smooth curv
 are fitted through control points with scipy's cubic splines and discretized at an
 arc-length step ``tau`` or a chordal tolerance; polyline corners can be rounded
 with fillets of a given bend radius.
+
+Segment, tangent and corner geometry is computed by :class:`Polylines` for many
+polylines at once (a splice of a thousand pipes); a :class:`Path` is a batch of one.
 """
 
 from functools import cached_property
@@ -13,6 +16,7 @@ import numpy as np
 from ._validate import as_points, as_positive
 from ._vec import cross, dot, norm, unit
 from .errors import GeometryError, InputError
+from .ragged import Groups
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
@@ -65,47 +69,42 @@ class Path:
     def closed(self):
         return self._closed
 
-    # -- derived geometry -----------------------------------------------------
+    # -- derived geometry (the batch-of-one view of :class:`Polylines`) -------
+    @cached_property
+    def _lines(self):
+        return Polylines(self._points, Groups([len(self._points)], self._closed))
+
     @cached_property
     def segments(self):
         """(M, 3) vectors from each point to the next (M = N - 1, or N when closed)."""
-        p = self._points
-        nxt = np.roll(p, -1, axis=0) if self._closed else p[1:]
-        return nxt - p[: len(nxt)]
+        return self._lines.segments[: self._segment_count]
 
     @cached_property
     def segment_lengths(self):
-        return norm(self.segments)
+        return self._lines.segment_lengths[: self._segment_count]
 
     @cached_property
     def directions(self):
         """(M, 3) unit direction of each segment."""
-        return self.segments / self.segment_lengths[:, None]
+        return self._lines.directions[: self._segment_count]
+
+    @property
+    def _segment_count(self):
+        return len(self._points) - (not self._closed)
 
     @cached_property
     def length(self):
-        return float(self.segment_lengths.sum())
+        return float(self._lines.lengths[0])
 
     @cached_property
     def arc_length(self):
         """(N,) distance along the path from the first point to each point."""
-        return np.concatenate([[0.0], np.cumsum(self.segment_lengths)])[: len(self._points)]
-
-    @cached_property
-    def _incoming_outgoing(self):
-        d = self.directions
-        if self._closed:
-            return np.roll(d, 1, axis=0), d
-        d_in = np.concatenate([d[:1], d])
-        d_out = np.concatenate([d, d[-1:]])
-        return d_in, d_out
+        return self._lines.arc_length
 
     @cached_property
     def turning_angles(self):
         """(N,) angle in radians between the incoming and outgoing segment at each point."""
-        d_in, d_out = self._incoming_outgoing
-        cos = dot(d_in, d_out).clip(-1.0, 1.0)
-        return np.arccos(cos)
+        return self._lines.turning_angles
 
     @cached_property
     def tangents(self):
@@ -114,20 +113,14 @@ class Path:
         A ring in the plane normal to the bisector is a miter joint, which keeps a
         tube's full radius through a corner.
         """
-        d_in, d_out = self._incoming_outgoing
-        folds = np.flatnonzero(self.turning_angles > np.pi - 1e-9)
-        if folds.size:
-            raise GeometryError(f"points: the path folds back on itself at point {folds[0]} "
-                                f"({self._points[folds[0]].tolist()}); remove the reversal")
-        return unit(d_in + d_out)
+        self._lines.require_no_folds()
+        return self._lines.tangents
 
     @cached_property
     def bend_directions(self):
         """(N, 3) unit vector in each corner's plane, perpendicular to the tangent
         (zero where the path is straight)."""
-        d_in, d_out = self._incoming_outgoing
-        bend = d_out - d_in
-        return np.where(self.turning_angles[:, None] > 1e-12, unit(bend), 0.0)
+        return self._lines.bend_directions
 
     # -- new paths -----------------------------------------------------------
     def resample(self, step):
@@ -167,7 +160,7 @@ class Path:
                 f"bend_radius={radius:g} does not fit between path points {i} and "
                 f"{(i + 1) % len(self)}: the segment is {self.segment_lengths[i]:.6g} long but "
                 f"the arcs need {setback[i] + before[i]:.6g}; use a smaller bend_radius")
-        d_in, d_out = self._incoming_outgoing
+        d_in, d_out = self._lines.incoming, self._lines.directions
         counts = np.where(corner, np.maximum(np.ceil(alpha / max_angle), 1).astype(np.int64) + 1, 1)
         source = np.repeat(np.arange(len(self)), counts)
         t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
@@ -263,3 +256,91 @@ class Path:
         if closed:
             samples = samples[:-1]
         return cls(samples, closed=closed)
+
+
+def polylines(paths):
+    """The paths' geometry as one :class:`Polylines` batch (a lone path's own, cached)."""
+    if len(paths) == 1:
+        return paths[0]._lines
+    return Polylines(np.concatenate([p.points for p in paths]),
+                     Groups([len(p) for p in paths], [p.closed for p in paths]))
+
+
+class Polylines:
+    """Segment, corner and tangent geometry of many polylines in one set of arrays.
+
+    Parameters
+    ----------
+    points : (N, 3) array
+        The polylines' points, concatenated (validated already: see :class:`Path`).
+    groups : Groups
+        Which rows belong to which polyline, and which polylines are closed.
+
+    Every per-segment array has one row per point: row i is the segment leaving
+    point i. An open polyline's last point leaves nowhere; its row repeats the
+    previous segment, so directions there are the end direction and sums and
+    running sums over segments leave it out.
+    """
+
+    def __init__(self, points, groups):
+        self.points = points
+        self.groups = groups
+
+    @cached_property
+    def segments(self):
+        p, g = self.points, self.groups
+        out = np.empty_like(p)
+        np.subtract(p[1:], p[:-1], out=out[:-1])
+        last = g.last
+        out[last] = np.where(g.closed[:, None], p[g.first] - p[last], out[last - 1])
+        return out
+
+    @cached_property
+    def segment_lengths(self):
+        return norm(self.segments)
+
+    @cached_property
+    def directions(self):
+        """(N, 3) unit direction of each segment: the outgoing direction at each point."""
+        return self.segments / self.segment_lengths[:, None]
+
+    @cached_property
+    def incoming(self):
+        """(N, 3) unit direction of the segment arriving at each point (an open
+        polyline's first point takes its outgoing direction)."""
+        return self.groups.preceding(self.directions)
+
+    @cached_property
+    def arc_length(self):
+        """(N,) distance along each polyline from its first point."""
+        return self.groups.exclusive_cumsum(self.segment_lengths)
+
+    @cached_property
+    def lengths(self):
+        """(G,) length of each polyline, with the closing segment of a closed one."""
+        g = self.groups
+        last = g.last
+        return self.arc_length[last] + np.where(g.closed, self.segment_lengths[last], 0.0)
+
+    @cached_property
+    def turning_angles(self):
+        return np.arccos(dot(self.incoming, self.directions).clip(-1.0, 1.0))
+
+    @cached_property
+    def tangents(self):
+        """(N, 3) unit bisectors of the adjacent segments (see :meth:`require_no_folds`)."""
+        return unit(self.incoming + self.directions)
+
+    @cached_property
+    def bend_directions(self):
+        bend = self.directions - self.incoming
+        return np.where(self.turning_angles[:, None] > 1e-12, unit(bend), 0.0)
+
+    def require_no_folds(self):
+        """Raise :class:`GeometryError` where a polyline reverses (no tangent exists)."""
+        folds = np.flatnonzero(self.turning_angles > np.pi - 1e-9)
+        if folds.size:
+            i = folds[0]
+            local = i - self.groups.first[self.groups.index[i]]
+            raise GeometryError(f"points: the path folds back on itself at point {local} "
+                                f"({self.points[i].tolist()}); remove the reversal")

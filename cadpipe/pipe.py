@@ -10,14 +10,14 @@ from functools import cached_property
 
 import numpy as np
 
-from . import clearance
 from ._validate import as_choice, as_int, as_positive
-from ._vec import cross, dot
+from ._vec import cross
 from .errors import GeometryError, InputError
-from .frames import FRAME_MODES, frames
-from .loft import band_face_count, band_faces, fan_faces
+from .frames import FRAME_MODES, as_direction
+from .loft import Surface, band_face_count, band_faces, fan_faces
 from .mesh import Mesh
-from .path import Path
+from .path import Path, polylines
+from .tubes import Tubes, ring_basis
 
 CAP_STYLES = ("flat", "round")
 CORNER_STYLES = ("miter", "round")
@@ -141,30 +141,28 @@ class Pipe:
         return self.radii * envelope_factor(self.sides) if self.envelope else self.radii
 
     @cached_property
-    def _frames(self):
-        p = self.path
-        return frames(p.points, p.tangents, self.frame, closed=p.closed, normal=self.normal,
-                      end_normal=self.end_normal, symmetry=2 * np.pi / self.sides)
+    def _tubes(self):
+        return tubes_of([self])
 
     @property
     def normals(self):
         """(N, 3) unit direction of each ring's vertex 0 (before miter stretch)."""
-        return self._frames[0]
+        return self._tubes.normals
 
     @property
     def binormals(self):
-        return cross(self.path.tangents, self.normals)
+        return cross(self._tubes.lines.tangents, self.normals)
 
     @property
     def seam_shift(self):
         """The last ring's vertex k meets vertex k + shift of the ring it must match: the
         first ring of a closed pipe, or the ring that ``end_normal`` describes."""
-        return self._frames[1]
+        return int(self._tubes.seam_shift[0])
 
-    @cached_property
+    @property
     def miter_stretch(self):
         """(N,) factor ``1 / cos(turn / 2)`` by which each ring is stretched in its bend plane."""
-        return 1.0 / np.cos(self.path.turning_angles / 2)
+        return self._tubes.miter_stretch
 
     def ring_axes(self):
         """(N, 2, 3) vectors that map ``(cos a, sin a)`` to a ring vertex offset.
@@ -173,25 +171,15 @@ class Pipe:
         tangent, stretched by :attr:`miter_stretch` along the bend direction so that
         it lies on both adjacent segments' cylinders.
         """
-        n, b = self.normals, self.binormals
-        m = self.path.bend_directions
-        extra = (self.miter_stretch - 1.0)[:, None]
-        n = n + extra * dot(n, m)[:, None] * m
-        b = b + extra * dot(b, m)[:, None] * m
-        r = self.ring_radii[:, None]
-        return np.stack([n * r, b * r], axis=1)
+        return self._tubes.axes[:, :2]
 
     def rings(self, sides=None):
         """(N, sides, 3) ring vertices, counter-clockwise about the tangent.
 
-        ``sides`` defaults to the pipe's own; a splice samples a transition's rings at
-        another size on the same frames.
+        ``sides`` defaults to the pipe's own; rings of other sizes on the same frames
+        are what a splice's transitions are made of.
         """
-        sides = self.sides if sides is None else sides
-        a = 2 * np.pi * np.arange(sides) / sides
-        # [cos a, sin a, 1] @ [axis_cos; axis_sin; centre]: one batched product per ring
-        basis = np.stack([np.cos(a), np.sin(a), np.ones_like(a)], axis=1)
-        return basis @ np.concatenate([self.ring_axes(), self.path.points[:, None, :]], axis=1)
+        return self._tubes.rings(slice(None), self.sides if sides is None else sides)
 
     def attributes(self):
         """The parameters that made this pipe, for exporters' metadata."""
@@ -208,7 +196,7 @@ class Pipe:
         the local bend radius) and non-neighbouring parts of the tube closer than
         the sum of their radii.
         """
-        return clearance.tube_self_intersections(self)
+        return self._tubes.self_intersections()[0]
 
     def mesh(self):
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
@@ -235,57 +223,15 @@ class Pipe:
         ``sides`` vertices are that end's open ring: a splice stitches it to the next
         piece.
         """
-        rings = self.rings()
-        n = self.sides
-        if self.closed:
-            return rings.reshape(-1, 3), band_faces(len(rings), n, closed=True,
-                                                    seam_shift=self.seam_shift)
-        no_cap = (np.empty((0, n, 3)), None)
-        start_rings, start_pole = self._cap_rings(0, -1) if cap_start else no_cap
-        end_rings, end_pole = self._cap_rings(-1, +1) if cap_end else no_cap
-        if len(start_rings) or len(end_rings):
-            rings = np.concatenate([start_rings[::-1], rings, end_rings])
-        poles = [p for p in (start_pole, end_pole) if p is not None]
-        count = len(rings) * n
-        vertices = rings.reshape(-1, 3)
-        if poles:
-            vertices = np.concatenate([vertices, poles])
-        ends = [(pole, ring, at_end) for wanted, pole, ring, at_end in
-                ((cap_start, start_pole, 0, False), (cap_end, end_pole, count - n, True)) if wanted]
-        n_band = band_face_count(len(rings), n)
-        cap_counts = [n if pole is not None else n - 2 for pole, _, _ in ends]
-        faces = np.empty((n_band + sum(cap_counts), 3), np.int64)
-        band_faces(len(rings), n, out=faces[:n_band])
-        row, apex = n_band, count
-        for (pole, ring, at_end), size in zip(ends, cap_counts):
-            faces[row:row + size] = fan_faces(ring, n, apex=None if pole is None else apex,
-                                              at_end=at_end)
-            apex += pole is not None
-            row += size
+        surface = Surface()
+        add_surface(surface, self._tubes, 0, self, cap_start=cap_start, cap_end=cap_end)
+        vertices, faces, _ = surface.build()
         return vertices, faces
 
     @property
     def cap_ring_count(self):
         """Rings a cap adds before its pole (0 for flat caps)."""
         return self.cap_segments - 1 if self.caps == "round" else 0
-
-    def _cap_rings(self, index, sign):
-        """A flat cap: ``(empty, None)``. A round cap: its latitude rings past the end
-        ring (outward from the tube) and its pole."""
-        if self.caps == "flat":
-            return np.empty((0, self.sides, 3)), None
-        m = self.cap_segments
-        lat = (np.pi / 2) * np.arange(1, m) / m
-        centre = self.path.points[index]
-        tangent = self.path.tangents[index] * sign
-        axes = self.ring_axes()[index]
-        scale = 1.0 / np.cos(np.pi / (4 * m)) if self.envelope else 1.0
-        a = 2 * np.pi * np.arange(self.sides) / self.sides
-        circle = np.cos(a)[:, None] * axes[0] + np.sin(a)[:, None] * axes[1]     # (sides, 3)
-        radius = self.ring_radii[index] * scale
-        rings = (centre + (scale * np.cos(lat))[:, None, None] * circle[None]
-                 + (radius * np.sin(lat))[:, None, None] * tangent)
-        return rings, centre + radius * tangent
 
     def units(self, overlap=0.0):
         """Convex pieces whose union is the tube: each path unit, plus round caps.
@@ -302,9 +248,9 @@ class Pipe:
         shift = overlap * self.path.directions[:, None, :]
         pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
         if not self.closed and self.caps == "round":
-            for index, sign in ((0, -1), (-1, 1)):
-                cap_rings, pole = self._cap_rings(index, sign)
-                pieces.append(np.concatenate([rings[index], cap_rings.reshape(-1, 3), pole[None]]))
+            for row, sign in ((0, -1), (len(rings) - 1, 1)):
+                cap, pole = cap_rings(self._tubes, row, sign, self)
+                pieces.append(np.concatenate([rings[row], cap.reshape(-1, 3), pole[None]]))
         return pieces
 
     def _repaired_mesh(self):
@@ -315,3 +261,66 @@ class Pipe:
         hulls = [manifold3d.Manifold.hull_points(p) for p in self.units(overlap)]
         solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
         return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})
+
+
+def tubes_of(pipes):
+    """The pipes' rings, frames and checks as one :class:`~cadpipe.tubes.Tubes` batch."""
+    return Tubes(polylines([p.path for p in pipes]),
+                 np.concatenate([p.ring_radii for p in pipes]),
+                 [p.sides for p in pipes], [p.miter_limit for p in pipes],
+                 patent=[p.frame == "patent" for p in pipes],
+                 normals=np.array([as_direction(p.normal, "normal") for p in pipes]),
+                 end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]))
+
+
+def cap_rings(tubes, row, sign, pipe):
+    """A round cap's latitude rings past the end ring at ``row`` (outward from the
+    tube, along ``sign`` times the tangent) and its pole."""
+    m = pipe.cap_segments
+    lat = (np.pi / 2) * np.arange(1, m) / m
+    centre = tubes.lines.points[row]
+    tangent = tubes.lines.tangents[row] * sign
+    scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
+    circle = ring_basis(pipe.sides)[:, :2] @ tubes.axes[row, :2]           # (sides, 3)
+    radius = tubes.ring_radii[row] * scale
+    rings = (centre + (scale * np.cos(lat))[:, None, None] * circle[None]
+             + (radius * np.sin(lat))[:, None, None] * tangent)
+    return rings, centre + radius * tangent
+
+
+def add_surface(surface, tubes, group, pipe, *, cap_start, cap_end, part=None):
+    """Lay out tube ``group`` of ``tubes`` (made from ``pipe``) in ``surface``: its
+    rings, side faces and the requested caps (see :meth:`Pipe.surface`).
+
+    Returns the vertex index of its first and last ring's vertex 0.
+    """
+    n = pipe.sides
+    first, last = int(tubes.groups.first[group]), int(tubes.groups.last[group])
+    count = last - first + 1
+    round_caps = pipe.caps == "round" and not pipe.closed
+    start = cap_rings(tubes, first, -1, pipe) if cap_start and round_caps else None
+    end = cap_rings(tubes, last, +1, pipe) if cap_end and round_caps else None
+    if start is not None:
+        surface.add_vertices(start[0].size // 3,
+                             lambda out: np.copyto(out, start[0][::-1].reshape(-1, 3)))
+    ring0 = surface.add_vertices(count * n, lambda out: tubes.rings(
+        slice(first, last + 1), n, out=out.reshape(count, n, 3)))
+    if end is not None:
+        surface.add_vertices(end[0].size // 3, lambda out: np.copyto(out, end[0].reshape(-1, 3)))
+    band_start = ring0 - (0 if start is None else start[0].size // 3)
+    bands = count + (0 if start is None else len(start[0])) + (0 if end is None else len(end[0]))
+    closed = pipe.closed
+    shift = int(tubes.seam_shift[group])
+    surface.add_faces(band_face_count(bands, n, closed), lambda out: band_faces(
+        bands, n, closed=closed, seam_shift=shift, first=band_start, out=out), part)
+    for wanted, cap, ring, at_end in ((cap_start, start, band_start, False),
+                                      (cap_end, end, band_start + (bands - 1) * n, True)):
+        if not wanted or closed:
+            continue
+        apex = None
+        if cap is not None:
+            apex = surface.add_vertices(1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
+        surface.add_faces(n if apex is not None else n - 2, lambda out, ring=ring, apex=apex,
+                          at_end=at_end: np.copyto(out, fan_faces(ring, n, apex=apex,
+                                                                  at_end=at_end)), part)
+    return ring0, ring0 + (count - 1) * n

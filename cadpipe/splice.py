@@ -9,16 +9,17 @@ meet once, by angle. The frames run on from pipe1's end and are eased to pipe2's
 start, so a transition never twists.
 """
 
-import math
-
 import numpy as np
 
 from ._validate import as_choice
+from ._vec import norm
 from .errors import GeometryError, InputError
-from .loft import band_faces, zipper_faces
+from .loft import Surface, band_face_count, band_faces, zipper_faces
 from .mesh import Mesh
-from .path import Path
-from .pipe import Pipe
+from .path import Polylines
+from .pipe import Pipe, add_surface, tubes_of
+from .ragged import Groups
+from .tubes import Tubes
 
 TRANSITIONS = ("lcm", "merge")
 
@@ -47,6 +48,10 @@ def splice(*pipes, transition="lcm", closed=False):
     Mesh
         Faces labelled by part: ``pipe<i>`` and ``transition<i>`` (from pipe i to the
         next).
+
+    All pipes are built as one batch, and all transitions as another
+    (:class:`~cadpipe.tubes.Tubes`): a chain of a thousand pipes costs a few numpy
+    calls per stage, not a few per pipe.
     """
     if not pipes:
         raise InputError("splice: expected at least one Pipe, got none")
@@ -58,111 +63,116 @@ def splice(*pipes, transition="lcm", closed=False):
     transition = as_choice(transition, "transition", TRANSITIONS)
     if len(pipes) == 1 and not closed:
         return pipes[0].mesh().with_parts(["pipe0"])
-    pipes = _make_room(list(pipes), closed)
-    junctions = list(zip(range(len(pipes)), range(1, len(pipes))))
-    if closed:
-        junctions.append((len(pipes) - 1, 0))
-
-    chain = _Chain()
-    ends = []                                        # (first ring, last ring) of each pipe
-    for i, p in enumerate(pipes):
-        problems = p.self_intersections()
+    before, after = _junctions(len(pipes), closed)
+    pipes = _make_room(list(pipes), before, after)
+    tubes = tubes_of(pipes)
+    for i, problems in enumerate(tubes.self_intersections()):
         if problems:
             raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}")
-        cap_start, cap_end = (i == 0 and not closed), (i == len(pipes) - 1 and not closed)
-        vertices, faces = p.surface(cap_start=cap_start, cap_end=cap_end)
-        first = chain.add(f"pipe{i}", vertices, faces)
-        poles = sum(1 for c in (cap_start, cap_end) if c and p.caps == "round")
-        ring_start = first + (p.cap_ring_count * p.sides if cap_start else 0)
-        ends.append((ring_start, first + len(vertices) - poles - p.sides))
-    for a, b in junctions:
-        _join(chain, pipes[a], pipes[b], ends[a][1], ends[b][0], f"transition{a}", transition)
-    return chain.mesh()
+    sides = tubes.sides
+    n3 = np.lcm(sides[before], sides[after]) if transition == "lcm" else sides[after]
+    bridges = _transition_tubes(tubes, before, after, n3)
+    for k, problems in enumerate(bridges.self_intersections()):
+        if problems:
+            raise GeometryError(f"splice: the transition{before[k]} would intersect itself: "
+                                f"{problems[0]}; move the pipes apart or align their ends")
+
+    surface = Surface()
+    ends = [add_surface(surface, tubes, i, p, part=f"pipe{i}",
+                        cap_start=i == 0 and not closed, cap_end=i == len(pipes) - 1 and not closed)
+            for i, p in enumerate(pipes)]
+    _add_transitions(surface, bridges, before, after, ends, sides, transition)
+    vertices, faces, face_part = surface.build()
+    return Mesh(vertices, faces, face_part=face_part, part_names=surface.part_names,
+                attributes={"kind": "chain", "parts": len(surface.part_names)})
 
 
-class _Chain:
-    """Vertex and face blocks with part labels, concatenated once at the end."""
-
-    def __init__(self):
-        self.vertices, self.faces, self.labels, self.names = [], [], [], []
-        self.count = 0
-
-    def add(self, name, vertices, faces):
-        first = self.count
-        self.vertices.append(vertices)
-        self.count += len(vertices)
-        self.add_faces(name, faces + first)
-        return first
-
-    def add_faces(self, name, faces):
-        if name not in self.names:
-            self.names.append(name)
-        self.faces.append(faces)
-        self.labels.append(np.full(len(faces), self.names.index(name), np.int32))
-
-    def mesh(self):
-        return Mesh(np.concatenate(self.vertices), np.concatenate(self.faces),
-                    face_part=np.concatenate(self.labels), part_names=self.names,
-                    attributes={"kind": "chain", "parts": len(self.names)})
+def _junctions(count, closed):
+    """(J,) index of the pipe before and after each junction."""
+    before = np.arange(count - 1 + closed)
+    return before, (before + 1) % count
 
 
-def _make_room(pipes, closed):
+def _make_room(pipes, before, after):
     """Pipes whose ends touch give up a little length for the transition between them."""
-    pairs = list(zip(range(len(pipes) - 1), range(1, len(pipes))))
-    if closed:
-        pairs.append((len(pipes) - 1, 0))
+    gap = norm(np.array([pipes[b].path.points[0] for b in after])
+               - np.array([pipes[a].path.points[-1] for a in before]))
+    room = np.minimum([pipes[a].ring_radii[-1] for a in before],
+                      [pipes[b].ring_radii[0] for b in after])
+    touching = gap < 0.5 * room
     trim = np.zeros((len(pipes), 2))
-    for a, b in pairs:
-        gap = np.linalg.norm(pipes[b].path.points[0] - pipes[a].path.points[-1])
-        room = min(pipes[a].ring_radii[-1], pipes[b].ring_radii[0])
-        if gap < 0.5 * room:
-            trim[a, 1] = trim[b, 0] = 0.5 * room
+    trim[before[touching], 1] = trim[after[touching], 0] = 0.5 * room[touching]
     return [p.trimmed(*t) if t.any() else p for p, t in zip(pipes, trim)]
 
 
-def _transition_pipe(p1, p2, sides):
-    """The transition from ``p1``'s end to ``p2``'s start as a Pipe (its end rings are
-    ``p1``'s and ``p2``'s own, so only its inner rings are used)."""
-    e, s = p1.path.points[-1], p2.path.points[0]
-    t1, t2 = p1.path.directions[-1], p2.path.directions[0]
-    chord = float(np.linalg.norm(s - e))
-    r1, r2 = p1.ring_radii[-1], p2.ring_radii[0]
-    count = max(MIN_RINGS + 1, math.ceil(RINGS_PER_RADIUS * chord / min(r1, r2)))
-    u = np.linspace(0.0, 1.0, count + 1)[:, None]
+def _transition_tubes(tubes, before, after, sides):
+    """The transitions from each pipe's end to the next one's start, as one batch.
+
+    Each follows a cubic Hermite curve tangent to both pipes, its radius eased from
+    one to the other; its frames start from the first pipe's end ring and end on the
+    second's start ring (up to a whole ``2*pi/sides`` step). Its end rings are the
+    pipes' own, so only its inner rings are used.
+    """
+    lines, groups = tubes.lines, tubes.groups
+    end, start = groups.last[before], groups.first[after]
+    e, s = lines.points[end], lines.points[start]
+    t1, t2 = lines.directions[end], lines.directions[start]
+    chord = norm(s - e)
+    r1, r2 = tubes.ring_radii[end], tubes.ring_radii[start]
+    count = np.maximum(MIN_RINGS + 1,
+                       np.ceil(RINGS_PER_RADIUS * chord / np.minimum(r1, r2)).astype(np.int64))
+    curves = Groups(count + 1)
+    u = curves.local() * curves.spread(1.0 / count)
+    u[curves.last] = 1.0                                           # as np.linspace does
     h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
     h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
-    points = h00 * e + h10 * chord * t1 + h01 * s + h11 * chord * t2
-    ease = (3 * u**2 - 2 * u**3).ravel()
-    radii = r1 + (r2 - r1) * ease
-    pipe = Pipe(Path(points), radii, sides=sides, normal=p1.normals[-1],
-                end_normal=p2.normals[0], miter_limit=p1.miter_limit)
-    if len(pipe.path) != count + 1:
+
+    def per_point(values):
+        return curves.spread(values)
+
+    points = (h00[:, None] * per_point(e) + (h10[:, None] * per_point(chord)[:, None])
+              * per_point(t1) + h01[:, None] * per_point(s)
+              + (h11[:, None] * per_point(chord)[:, None]) * per_point(t2))
+    ease = 3 * u**2 - 2 * u**3
+    radii = per_point(r1) + per_point(r2 - r1) * ease
+    bridges = Polylines(points, curves)
+    extent = (np.maximum.reduceat(points, curves.first) - np.minimum.reduceat(points, curves.first))
+    tolerance = 1e-9 * np.maximum(extent.max(axis=1), 1.0)     # as Path drops duplicates
+    is_segment = np.ones(len(points), bool)
+    is_segment[curves.last] = False
+    if (is_segment & (bridges.segment_lengths <= curves.spread(tolerance))).any():
         raise GeometryError("splice: the transition is too short for its rings; "
                             "leave more room between the pipes")
-    return pipe
+    return Tubes(bridges, radii, sides, tubes.miter_limit[before],
+                 normals=tubes.normals[end], end_normals=tubes.normals[start])
 
 
-def _join(chain, p1, p2, ring1, ring2, name, mode):
-    """Transition rings between ``p1``'s last ring and ``p2``'s first, and their faces."""
-    n1, n2 = p1.sides, p2.sides
-    n3 = math.lcm(n1, n2) if mode == "lcm" else n2
-    trans = _transition_pipe(p1, p2, n3)
-    problems = trans.self_intersections()
-    if problems:
-        raise GeometryError(f"splice: the {name} would intersect itself: {problems[0]}; "
-                            "move the pipes apart or align their ends")
-    inner = len(trans.path) - 2
-    # merge: n1-gon rings for the first half, n2-gon after; lcm: all lcm-gon rings
-    sizes = [n1] * (inner // 2) + [n2] * (inner - inner // 2) if mode == "merge" else [n3] * inner
-    blocks = []
-    for size in dict.fromkeys(sizes):
-        idx = [k + 1 for k, n in enumerate(sizes) if n == size]
-        blocks.append((size, trans.rings(size)[idx].reshape(-1, 3), len(idx)))
-    # the transition frames meet p2's ring with a whole-step offset on the n3 grid
-    offset_b = -trans.seam_shift * n2 / n3
-    prev_start, prev_n = ring1, n1
-    for size, vertices, rings in blocks:
-        first = chain.add(name, vertices, band_faces(rings, size))
-        chain.add_faces(name, zipper_faces(prev_start, prev_n, first, size))
-        prev_start, prev_n = first + (rings - 1) * size, size
-    chain.add_faces(name, zipper_faces(prev_start, prev_n, ring2, n2, offset_b))
+def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
+    """Lay out each transition's inner rings, their side faces and the stitches that
+    join them to each other and to the pipes' end rings."""
+    groups = bridges.groups
+    stitches = []                      # (from ring, its size, to ring, its size, offset, part)
+    for k, (a, b) in enumerate(zip(before.tolist(), after.tolist())):
+        part = surface.part(f"transition{a}")
+        n1, n2 = int(pipe_sides[a]), int(pipe_sides[b])
+        n3 = int(bridges.sides[k])
+        first, last = int(groups.first[k]) + 1, int(groups.last[k])       # inner rings
+        inner = last - first
+        # merge: n1-gon rings for the first half, n2-gon after; lcm: all lcm-gon rings
+        cut = first + inner // 2 if mode == "merge" and n1 != n2 else first
+        blocks = [(first, cut, n1), (cut, last, n3)] if cut > first else [(first, last, n3)]
+        prev, prev_n = ends[a][1], n1
+        for lo, hi, size in blocks:
+            ring0 = surface.add_vertices((hi - lo) * size, lambda out, lo=lo, hi=hi, size=size:
+                                         bridges.rings(slice(lo, hi), size,
+                                                       out=out.reshape(hi - lo, size, 3)))
+            surface.add_faces(band_face_count(hi - lo, size), lambda out, ring0=ring0, n=hi - lo,
+                              size=size: band_faces(n, size, first=ring0, out=out), part)
+            stitches.append((prev, prev_n, ring0, size, 0.0, part))
+            prev, prev_n = ring0 + (hi - lo - 1) * size, size
+        # the transition frames meet p2's ring with a whole-step offset on the n3 grid
+        offset = -int(bridges.seam_shift[k]) * n2 / n3
+        stitches.append((prev, prev_n, ends[b][0], n2, offset, part))
+    a_start, n_a, b_start, n_b, offset, part = map(np.array, zip(*stitches))
+    surface.add_faces(int((n_a + n_b).sum()), lambda out: np.copyto(
+        out, zipper_faces(a_start, n_a, b_start, n_b, offset)), np.repeat(part, n_a + n_b))
