@@ -1,28 +1,34 @@
-"""Row-wise vector helpers; einsum is several times faster than np.linalg.norm here."""
+"""Vector helpers over an axis of 3 components (the last by default: rows of (N, 3)).
+
+The batch code keeps vectors component-first, ``(3, N)`` with ``axis=0``: every
+operation then runs over long contiguous rows, several times faster than over
+rows of 3. einsum is several times faster than np.linalg.norm either way.
+"""
 
 import numpy as np
 
 
-def norm(v):
-    """Euclidean length of each row of ``v``."""
-    return np.sqrt(np.einsum("...i,...i->...", v, v))
+def norm(v, axis=-1):
+    """Euclidean length of each vector."""
+    return np.sqrt(dot(v, v, axis))
 
 
-def dot(a, b):
-    """Row-wise dot product."""
-    return np.einsum("...i,...i->...", a, b)
+def dot(a, b, axis=-1):
+    """Dot product of each pair of vectors."""
+    return np.einsum("i...,i...->...", np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0))
 
 
-def unit(v):
-    """Rows scaled to unit length (zero rows stay zero)."""
-    n = norm(v)[..., None]
+def unit(v, axis=-1):
+    """Vectors scaled to unit length (zero vectors stay zero)."""
+    n = np.expand_dims(norm(v, axis), axis)
     return v / np.where(n > 0, n, 1.0)
 
 
-def cross(a, b):
-    """Row-wise cross product of (N, 3) arrays, without np.cross's axis juggling."""
+def cross(a, b, axis=-1):
+    """Cross product of each pair of vectors, without np.cross's axis juggling."""
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    a, b, o = np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0), np.moveaxis(out, axis, 0)
+    o[0] = a[1] * b[2] - a[2] * b[1]
+    o[1] = a[2] * b[0] - a[0] * b[2]
+    o[2] = a[0] * b[1] - a[1] * b[0]
     return out

@@ -66,16 +66,12 @@ def _local_overlaps(tubes):
     lines = tubes.lines
     groups = lines.groups
     d = lines.directions
-    t = lines.tangents
-
-    def g(tangent):
-        along = dot(tangent, d)
-        return -(tangent - along[:, None] * d) / along[:, None]
-
-    rho = tubes.ring_radii
+    t, t_next = lines.tangents, groups.following(lines.tangents)
+    # g = -(t - (t.d) d) / (t.d) = d - t / (t.d), so g_start - g_end = t_next/a_next - t/a
     with np.errstate(divide="ignore", invalid="ignore"):    # folds: found by _miter_limit
-        spread = norm(g(t) - g(groups.following(t)))
-    is_segment = np.ones(len(t), bool)
+        spread = norm(t_next / dot(t_next, d, 0) - t / dot(t, d, 0), 0)
+    rho = tubes.ring_radii
+    is_segment = np.ones(len(rho), bool)
     is_segment[groups.last] = groups.closed
     bad = np.flatnonzero(is_segment & (np.maximum(rho, groups.following(rho)) * spread
                                        >= lines.segment_lengths * (1 - 1e-9)))
@@ -91,8 +87,7 @@ def _local_overlaps(tubes):
 def _samples(tubes, step):
     """Points and radii every ``step`` (per tube) along each tube's path.
 
-    Returns the sample groups, their positions, arc lengths, radii and the rows of
-    the path segments they lie on.
+    Returns the sample groups, their (3, S) positions, arc lengths and radii.
     """
     lines = tubes.lines
     groups = lines.groups
@@ -110,10 +105,10 @@ def _samples(tubes, step):
     last_segment = np.where(closed, groups.last, groups.last - 1)
     row = np.clip(row, samples.spread(groups.first), samples.spread(last_segment))
     frac = (s - lines.arc_length[row]) / lines.segment_lengths[row]
-    points = lines.points[row] + frac[:, None] * lines.segments[row]
+    points = lines.xyz[:, row] + frac * lines.segments[:, row]
     rho = tubes.ring_radii
     radii = rho[row] + frac * (groups.following(rho)[row] - rho[row])
-    return samples, points, s, radii, row
+    return samples, points, s, radii
 
 
 def _distant_overlaps(tubes):
@@ -130,7 +125,8 @@ def _distant_overlaps(tubes):
     rho = tubes.ring_radii
     reach = 2.0 * np.maximum.reduceat(rho, groups.first)      # the farthest a pair can reach
     step = 0.25 * np.minimum.reduceat(rho, groups.first)
-    samples, points, s, radii, _ = _samples(tubes, step)
+    samples, points, s, radii = _samples(tubes, step)
+    points = np.ascontiguousarray(points.T)                   # rows: fast to gather pairs of
     scaled = points / samples.spread(reach)[:, None]
     low = np.minimum.reduceat(scaled[:, 0], samples.first)
     high = np.maximum.reduceat(scaled[:, 0], samples.first)

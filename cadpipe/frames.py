@@ -15,6 +15,7 @@ import numpy as np
 
 from ._vec import cross, dot, norm, unit
 from .errors import InputError
+from .ragged import blocks
 
 FRAME_MODES = ("rmf", "patent")
 
@@ -35,50 +36,51 @@ def as_direction(value, name):
 def _reference(tangents):
     """A perpendicular to each tangent, from the coordinate axis least aligned with it."""
     axis = np.zeros_like(tangents)
-    axis[np.arange(len(tangents)), np.argmin(np.abs(tangents), axis=1)] = 1.0
-    u = unit(cross(tangents, axis))
-    return u, cross(tangents, u)
+    axis[np.argmin(np.abs(tangents), axis=0), np.arange(tangents.shape[1])] = 1.0
+    u = unit(cross(tangents, axis, 0), 0)
+    return u, cross(tangents, u, 0)
 
 
 def _reflect(v, normal, normal_sq):
-    """Reflect each row of ``v`` in the plane through the origin with normal ``normal``."""
-    factor = np.divide(2.0 * dot(normal, v), normal_sq,
-                       out=np.zeros(len(v)), where=normal_sq > 1e-300)
-    return v - factor[:, None] * normal
+    """Reflect each vector ``v`` in the plane through the origin with normal ``normal``."""
+    factor = np.divide(2.0 * dot(normal, v, 0), normal_sq,
+                       out=np.zeros(v.shape[1]), where=normal_sq > 1e-300)
+    return v - factor * normal
 
 
 def _turns(v1, t, t_next, u, u_next, w_next):
     """Angle the double reflection along segment ``v1`` turns ``u`` by, against ``u_next``."""
-    c1 = dot(v1, v1)
+    c1 = dot(v1, v1, 0)
     v2 = t_next - _reflect(t, v1, c1)
-    moved = _reflect(_reflect(u, v1, c1), v2, dot(v2, v2))
-    return np.arctan2(dot(moved, w_next), dot(moved, u_next))
+    moved = _reflect(_reflect(u, v1, c1), v2, dot(v2, v2, 0))
+    return np.arctan2(dot(moved, w_next, 0), dot(moved, u_next, 0))
 
 
-def _step_angles(lines, t, u, w):
-    """(N,) angle of each step, from each point to the next on its path.
+def _step_angles(lines, tuw):
+    """(N,) angle of each step, from each point to the next on its path (a closed
+    path's last point to its first; an open path's last value is unused).
 
-    Rows are paired with the following row in one pass; each path's last row (its
-    closing step, or nothing for an open path) is then redone with the right partner.
+    ``tuw`` holds each point's tangent, reference u and reference w (rows 0-2, 3-5, 6-8).
     """
-    v1 = lines.segments
-    delta = np.empty(len(t))
-    delta[:-1] = _turns(v1[:-1], t[:-1], t[1:], u[:-1], u[1:], w[1:])
-    last = lines.groups.last
-    nxt = lines.groups.wrap(last)
-    delta[last] = _turns(v1[last], t[last], t[nxt], u[last], u[nxt], w[nxt])
+    groups = lines.groups
+    delta = np.empty(groups.size)
+    for rows in blocks(groups.size):
+        here, after = tuw[:, rows], groups.following(tuw, rows.start, rows.stop)
+        delta[rows] = _turns(lines.segments[:, rows], here[:3], after[:3], here[3:6],
+                             after[3:6], after[6:])
     return delta
 
 
 def _angles_in_plane(vectors, tangents, u, w, name):
-    """Angle of each vector (projected across its tangent) against ``u``; NaN where
-    no vector is given."""
-    across = vectors - tangents * dot(vectors, tangents)[:, None]
-    parallel = norm(across) <= 1e-9 * np.maximum(norm(vectors), 1e-300)
+    """Angle of each of the (G, 3) ``vectors`` (projected across its tangent) against
+    ``u``; the other arguments are component-first (3, G)."""
+    v = vectors.T
+    across = v - tangents * dot(v, tangents, 0)
+    parallel = norm(across, 0) <= 1e-9 * np.maximum(norm(v, 0), 1e-300)
     if parallel.any():
         raise InputError(f"{name}: is parallel to the path's tangent there; "
                          "give a direction across the path")
-    return np.arctan2(dot(across, w), dot(across, u))
+    return np.arctan2(dot(across, w, 0), dot(across, u, 0))
 
 
 def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, symmetry=None):
@@ -88,8 +90,8 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
     ----------
     lines : Polylines
         The paths (points, segments, arc lengths) and their groups.
-    tangents : (N, 3) array
-        Unit tangents.
+    tangents : (3, N) array
+        Unit tangents, component-first.
     patent : bool or (G,) array of bool
         Paths that use the source's ``OP x L`` rule instead of rotation-minimizing
         frames; it cannot match a seam or an end normal.
@@ -105,7 +107,7 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
 
     Returns
     -------
-    normals : (N, 3) array
+    normals : (3, N) array
     seam_shift : (G,) int array
         Whole ``symmetry`` steps left at each path's far end: the last ring's vertex k
         meets vertex ``k + seam_shift`` of the ring it must match (the first ring of a
@@ -122,13 +124,18 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
         raise InputError("frame='patent' cannot match a seam or an end_normal; "
                          "use frame='rmf'")
     first, last = g.first, g.last
-    u, w = _reference(tangents)
+    tuw = np.empty((9, g.size))                  # tangent, reference u, reference w
+    tuw[:3] = tangents
+    for rows in blocks(g.size):
+        tuw[3:6, rows], tuw[6:, rows] = _reference(tangents[:, rows])
+    u, w = tuw[3:6], tuw[6:]
     starts = ~np.isnan(normals[:, 0]) & ~patent
     phi0 = np.zeros(count)
     if starts.any():
-        phi0[starts] = _angles_in_plane(normals[starts], tangents[first[starts]],
-                                        u[first[starts]], w[first[starts]], "normal")
-    delta = _step_angles(lines, tangents, u, w)
+        rows = first[starts]
+        phi0[starts] = _angles_in_plane(normals[starts], tangents[:, rows], u[:, rows],
+                                        w[:, rows], "normal")
+    delta = _step_angles(lines, tuw)
     phi = g.spread(phi0) + g.exclusive_cumsum(delta)
     shift = np.zeros(count, np.int64)
     adjust = g.closed | ends
@@ -136,18 +143,21 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
         mismatch = np.zeros(count)
         mismatch[g.closed] = -g.sums(delta)[g.closed]
         if ends.any():
-            target = _angles_in_plane(end_normals[ends], tangents[last[ends]], u[last[ends]],
-                                      w[last[ends]], "end_normal")
+            rows = last[ends]
+            target = _angles_in_plane(end_normals[ends], tangents[:, rows], u[:, rows],
+                                      w[:, rows], "end_normal")
             mismatch[ends] = target - phi[last[ends]]
         steps = np.round(mismatch / symmetry)
         excess = np.where(adjust, mismatch - steps * symmetry, 0.0)
         total = np.where(adjust, lines.lengths, 1.0)
         phi = phi + g.spread(excess) * lines.arc_length / g.spread(total)
         shift = -steps.astype(np.int64)
-    out = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w
+    out = np.empty((3, g.size))
+    for rows in blocks(g.size):
+        np.add(np.cos(phi[rows]) * u[:, rows], np.sin(phi[rows]) * w[:, rows], out=out[:, rows])
     if patent.any():
         rows = patent[g.index]
-        out[rows] = _patent_normals(lines.points[rows], tangents[rows], out[rows])
+        out[:, rows] = _patent_normals(lines.xyz[:, rows], tangents[:, rows], out[:, rows])
     return out, shift
 
 
@@ -157,6 +167,6 @@ def _patent_normals(points, tangents, fallback):
     Where ``OP x L`` vanishes (the tangent points at or away from the origin, or P
     is the origin) the rotation-minimizing normal ``fallback`` is used instead.
     """
-    normals = cross(points, tangents)
-    bad = norm(normals) <= 1e-9 * np.maximum(norm(points), 1.0)
-    return np.where(bad[:, None], fallback, unit(normals))
+    normals = cross(points, tangents, 0)
+    bad = norm(normals, 0) <= 1e-9 * np.maximum(norm(points, 0), 1.0)
+    return np.where(bad, fallback, unit(normals, 0))

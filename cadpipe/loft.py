@@ -13,6 +13,18 @@ from functools import lru_cache
 import numpy as np
 
 
+@lru_cache(maxsize=256)
+def _band_pattern(sides):
+    """(1, 6 * sides) faces of the band between ring 0 and ring 1, flattened: quads
+    (a, b, d, c) as triangles (a, b, c), (b, d, c)."""
+    k = np.arange(sides)
+    k1 = (k + 1) % sides
+    tri = np.stack([np.stack([k, k1, k + sides], 1), np.stack([k1, k1 + sides, k + sides], 1)],
+                   1).reshape(1, -1)
+    tri.flags.writeable = False
+    return tri
+
+
 def band_faces(n_rings, sides, *, closed=False, seam_shift=0, first=0, out=None):
     """Side faces joining consecutive rings of equal size.
 
@@ -21,18 +33,16 @@ def band_faces(n_rings, sides, *, closed=False, seam_shift=0, first=0, out=None)
     ``k + seam_shift``. ``out`` (an ``(F, 3)`` int64 array) receives the faces
     without an extra copy; its length must be :func:`band_face_count`.
     """
-    k = np.arange(sides)
-    k1 = (k + 1) % sides
-    # one band between ring 0 and ring 1: quads (a, b, d, c) as triangles (a,b,c), (b,d,c)
-    tri = np.stack([np.stack([k, k1, k + sides], 1), np.stack([k1, k1 + sides, k + sides], 1)],
-                   1).reshape(1, -1) + first
     n_bands = n_rings - 1
     if out is None:
         out = np.empty((band_face_count(n_rings, sides, closed), 3), np.int64)
     # every band is the first one shifted by whole rings: one broadcast add, rows of 6*sides
-    offsets = np.arange(0, n_bands * sides, sides, dtype=np.int64)
-    np.add(offsets[:, None], tri, out=out[: n_bands * 2 * sides].reshape(n_bands, -1))
+    offsets = np.arange(first, first + n_bands * sides, sides, dtype=np.int64)
+    np.add(offsets[:, None], _band_pattern(sides), out=out[: n_bands * 2 * sides].reshape(
+        n_bands, -1))
     if closed:
+        k = np.arange(sides)
+        k1 = (k + 1) % sides
         last = (n_rings - 1) * sides + first
         ks = (k + seam_shift) % sides + first
         ks1 = (k1 + seam_shift) % sides + first
@@ -115,6 +125,7 @@ class Surface:
         self.vertex_count = 0
         self.face_count = 0
         self.part_names = []
+        self._part_index = {}
         self._vertex_blocks = []
         self._face_blocks = []
 
@@ -136,9 +147,10 @@ class Surface:
 
     def part(self, name):
         """The index of part ``name`` (added if new)."""
-        if name not in self.part_names:
+        if name not in self._part_index:
+            self._part_index[name] = len(self.part_names)
             self.part_names.append(name)
-        return self.part_names.index(name)
+        return self._part_index[name]
 
     def build(self):
         """``(vertices, faces, face_part)``; ``face_part`` is None when no block has a part."""

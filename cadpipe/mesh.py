@@ -68,16 +68,18 @@ class Mesh:
         self._attributes = MappingProxyType(dict(attributes or {}))
 
     @classmethod
-    def trusted(cls, vertices, faces, *, attributes=None):
+    def trusted(cls, vertices, faces, *, face_part=None, part_names=(), attributes=None):
         """Wrap arrays a cadpipe stage just built, skipping the input checks.
 
         ``vertices`` must be finite float64 ``(V, 3)`` and ``faces`` int64 ``(F, 3)``
-        indices into them; large pipes are built faster than they can be re-checked.
+        indices into them (``face_part``, if given, indices into ``part_names``);
+        large pipes are built faster than they can be re-checked.
         """
         mesh = cls.__new__(cls)
         mesh._vertices = _frozen(vertices, np.float64)
         mesh._faces = _frozen(faces, np.int64)
-        mesh._face_part, mesh._part_names = None, ()
+        mesh._face_part = None if face_part is None else _frozen(face_part, np.int32)
+        mesh._part_names = tuple(str(n) for n in part_names)
         mesh._attributes = MappingProxyType(dict(attributes or {}))
         return mesh
 

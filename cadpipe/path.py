@@ -16,7 +16,7 @@ import numpy as np
 from ._validate import as_points, as_positive
 from ._vec import cross, dot, norm, unit
 from .errors import GeometryError, InputError
-from .ragged import Groups
+from .ragged import Groups, blocks
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
@@ -34,23 +34,27 @@ class Path:
         Whether the last point connects back to the first.
     """
 
-    __slots__ = ("_points", "_closed", "__dict__")
+    __slots__ = ("_points", "_xyz", "_closed", "__dict__")
 
     def __init__(self, points, closed=False):
         pts = as_points(points, "points", min_count=2)
-        extent = float(np.ptp(pts, axis=0).max())
+        xyz = np.ascontiguousarray(pts.T)        # component-first: fast along the path
+        extent = float((xyz.max(axis=1) - xyz.min(axis=1)).max())
         tol = DUPLICATE_TOLERANCE * max(extent, 1.0)
         keep = np.ones(len(pts), bool)
-        keep[1:] = norm(np.diff(pts, axis=0)) > tol
-        pts = pts[keep]
+        keep[1:] = norm(np.diff(xyz, axis=1), 0) > tol
+        if not keep.all():
+            pts, xyz = pts[keep], xyz[:, keep]
         if closed and len(pts) > 1 and np.linalg.norm(pts[-1] - pts[0]) <= tol:
-            pts = pts[:-1]
+            pts, xyz = pts[:-1], xyz[:, :-1]
         need = 3 if closed else 2
         if len(pts) < need:
             raise InputError(f"points: a{' closed' if closed else 'n open'} path needs at least "
                              f"{need} distinct points, got {len(pts)} after dropping duplicates")
+        pts = np.array(pts)                       # our own copy, frozen
         pts.flags.writeable = False
         self._points = pts
+        self._xyz = np.ascontiguousarray(xyz)
         self._closed = bool(closed)
 
     def __repr__(self):
@@ -72,25 +76,25 @@ class Path:
     # -- derived geometry (the batch-of-one view of :class:`Polylines`) -------
     @cached_property
     def _lines(self):
-        return Polylines(self._points, Groups([len(self._points)], self._closed))
+        return Polylines(self._xyz, Groups([len(self._points)], self._closed))
+
+    def _rows(self, vectors):
+        """(M, 3) rows of the component-first ``vectors``, one per segment."""
+        return np.ascontiguousarray(vectors[:, : len(self._points) - (not self._closed)].T)
 
     @cached_property
     def segments(self):
         """(M, 3) vectors from each point to the next (M = N - 1, or N when closed)."""
-        return self._lines.segments[: self._segment_count]
+        return self._rows(self._lines.segments)
 
     @cached_property
     def segment_lengths(self):
-        return self._lines.segment_lengths[: self._segment_count]
+        return self._lines.segment_lengths[: len(self._points) - (not self._closed)]
 
     @cached_property
     def directions(self):
         """(M, 3) unit direction of each segment."""
-        return self._lines.directions[: self._segment_count]
-
-    @property
-    def _segment_count(self):
-        return len(self._points) - (not self._closed)
+        return self._rows(self._lines.directions)
 
     @cached_property
     def length(self):
@@ -114,13 +118,13 @@ class Path:
         tube's full radius through a corner.
         """
         self._lines.require_no_folds()
-        return self._lines.tangents
+        return np.ascontiguousarray(self._lines.tangents.T)
 
     @cached_property
     def bend_directions(self):
         """(N, 3) unit vector in each corner's plane, perpendicular to the tangent
         (zero where the path is straight)."""
-        return self._lines.bend_directions
+        return np.ascontiguousarray(self._lines.bend_directions.T)
 
     # -- new paths -----------------------------------------------------------
     def resample(self, step):
@@ -160,7 +164,7 @@ class Path:
                 f"bend_radius={radius:g} does not fit between path points {i} and "
                 f"{(i + 1) % len(self)}: the segment is {self.segment_lengths[i]:.6g} long but "
                 f"the arcs need {setback[i] + before[i]:.6g}; use a smaller bend_radius")
-        d_in, d_out = self._lines.incoming, self._lines.directions
+        d_in, d_out = self._lines.incoming.T, self._lines.directions.T
         counts = np.where(corner, np.maximum(np.ceil(alpha / max_angle), 1).astype(np.int64) + 1, 1)
         source = np.repeat(np.arange(len(self)), counts)
         t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
@@ -262,7 +266,7 @@ def polylines(paths):
     """The paths' geometry as one :class:`Polylines` batch (a lone path's own, cached)."""
     if len(paths) == 1:
         return paths[0]._lines
-    return Polylines(np.concatenate([p.points for p in paths]),
+    return Polylines(np.ascontiguousarray(np.concatenate([p.points for p in paths]).T),
                      Groups([len(p) for p in paths], [p.closed for p in paths]))
 
 
@@ -271,42 +275,44 @@ class Polylines:
 
     Parameters
     ----------
-    points : (N, 3) array
-        The polylines' points, concatenated (validated already: see :class:`Path`).
+    xyz : (3, N) array
+        The polylines' points, concatenated, component-first (validated already: see
+        :class:`Path`). Every vector array here is component-first too, so each
+        operation runs over long contiguous rows.
     groups : Groups
-        Which rows belong to which polyline, and which polylines are closed.
+        Which points belong to which polyline, and which polylines are closed.
 
-    Every per-segment array has one row per point: row i is the segment leaving
-    point i. An open polyline's last point leaves nowhere; its row repeats the
-    previous segment, so directions there are the end direction and sums and
-    running sums over segments leave it out.
+    Every per-segment array has one column per point: column i is the segment
+    leaving point i. An open polyline's last point leaves nowhere; its column
+    repeats the previous segment, so directions there are the end direction, and
+    sums and running sums over segments leave it out.
     """
 
-    def __init__(self, points, groups):
-        self.points = points
+    def __init__(self, xyz, groups):
+        self.xyz = xyz
         self.groups = groups
 
     @cached_property
     def segments(self):
-        p, g = self.points, self.groups
+        p, g = self.xyz, self.groups
         out = np.empty_like(p)
-        np.subtract(p[1:], p[:-1], out=out[:-1])
+        np.subtract(p[:, 1:], p[:, :-1], out=out[:, :-1])
         last = g.last
-        out[last] = np.where(g.closed[:, None], p[g.first] - p[last], out[last - 1])
+        out[:, last] = np.where(g.closed, p[:, g.first] - p[:, last], out[:, last - 1])
         return out
 
     @cached_property
     def segment_lengths(self):
-        return norm(self.segments)
+        return norm(self.segments, 0)
 
     @cached_property
     def directions(self):
-        """(N, 3) unit direction of each segment: the outgoing direction at each point."""
-        return self.segments / self.segment_lengths[:, None]
+        """(3, N) unit direction of each segment: the outgoing direction at each point."""
+        return self.segments / self.segment_lengths
 
-    @cached_property
+    @property
     def incoming(self):
-        """(N, 3) unit direction of the segment arriving at each point (an open
+        """(3, N) unit direction of the segment arriving at each point (an open
         polyline's first point takes its outgoing direction)."""
         return self.groups.preceding(self.directions)
 
@@ -323,18 +329,44 @@ class Polylines:
         return self.arc_length[last] + np.where(g.closed, self.segment_lengths[last], 0.0)
 
     @cached_property
-    def turning_angles(self):
-        return np.arccos(dot(self.incoming, self.directions).clip(-1.0, 1.0))
+    def _corners(self):
+        """(8, N): tangent (rows 0-2), bend direction (3-5), turning angle (6) and miter
+        stretch (7) at every point, computed block by block."""
+        out = np.empty((8, self.groups.size))
+        d = self.directions
+        for rows in blocks(self.groups.size):
+            d_in, d_out = self.groups.preceding(d, rows.start, rows.stop), d[:, rows]
+            turn = out[6, rows]
+            np.arccos(dot(d_in, d_out, 0).clip(-1.0, 1.0), out=turn)
+            bisector = d_in + d_out
+            size = norm(bisector, 0)
+            np.divide(bisector, np.where(size > 0, size, 1.0), out=out[0:3, rows])
+            np.multiply(unit(d_out - d_in, 0), turn > 1e-12, out=out[3:6, rows])
+            with np.errstate(divide="ignore"):                    # a fold: infinite
+                np.divide(2.0, size, out=out[7, rows])            # |d_in + d_out| = 2 cos(turn/2)
+        return out
 
-    @cached_property
+    @property
     def tangents(self):
-        """(N, 3) unit bisectors of the adjacent segments (see :meth:`require_no_folds`)."""
-        return unit(self.incoming + self.directions)
+        """(3, N) unit bisectors of the adjacent segments (see :meth:`require_no_folds`)."""
+        return self._corners[0:3]
 
-    @cached_property
+    @property
     def bend_directions(self):
-        bend = self.directions - self.incoming
-        return np.where(self.turning_angles[:, None] > 1e-12, unit(bend), 0.0)
+        """(3, N) unit vector in each corner's plane, across the tangent (zero where
+        the polyline is straight)."""
+        return self._corners[3:6]
+
+    @property
+    def turning_angles(self):
+        """(N,) angle between the incoming and outgoing segment at each point."""
+        return self._corners[6]
+
+    @property
+    def miter_stretch(self):
+        """(N,) ``1 / cos(turn / 2)``: how far a ring in the bisector plane reaches
+        along the bend to stay on both segments' cylinders (infinite at a fold)."""
+        return self._corners[7]
 
     def require_no_folds(self):
         """Raise :class:`GeometryError` where a polyline reverses (no tangent exists)."""
@@ -343,4 +375,4 @@ class Polylines:
             i = folds[0]
             local = i - self.groups.first[self.groups.index[i]]
             raise GeometryError(f"points: the path folds back on itself at point {local} "
-                                f"({self.points[i].tolist()}); remove the reversal")
+                                f"({self.xyz[:, i].tolist()}); remove the reversal")

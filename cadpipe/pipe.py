@@ -147,11 +147,11 @@ class Pipe:
     @property
     def normals(self):
         """(N, 3) unit direction of each ring's vertex 0 (before miter stretch)."""
-        return self._tubes.normals
+        return np.ascontiguousarray(self._tubes.normals.T)
 
     @property
     def binormals(self):
-        return cross(self._tubes.lines.tangents, self.normals)
+        return cross(self.path.tangents, self.normals)
 
     @property
     def seam_shift(self):
@@ -278,8 +278,8 @@ def cap_rings(tubes, row, sign, pipe):
     tube, along ``sign`` times the tangent) and its pole."""
     m = pipe.cap_segments
     lat = (np.pi / 2) * np.arange(1, m) / m
-    centre = tubes.lines.points[row]
-    tangent = tubes.lines.tangents[row] * sign
+    centre = tubes.lines.xyz[:, row]
+    tangent = tubes.lines.tangents[:, row] * sign
     scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
     circle = ring_basis(pipe.sides)[:, :2] @ tubes.axes[row, :2]           # (sides, 3)
     radius = tubes.ring_radii[row] * scale

@@ -12,6 +12,20 @@ from functools import cached_property
 import numpy as np
 
 
+#: rows per block for per-point work done block by block (see :func:`blocks`)
+BLOCK = 8192
+
+
+def blocks(size):
+    """Slices covering ``range(size)`` in steps of :data:`BLOCK` rows.
+
+    Per-point arithmetic done block by block keeps its temporaries small: they stay
+    in cache and are recycled by the allocator, where whole-batch temporaries would
+    each be fresh memory (a page fault every 4 KiB).
+    """
+    return [slice(a, min(a + BLOCK, size)) for a in range(0, size, BLOCK)]
+
+
 class Groups:
     """Row ranges of G items, each open or closed (its last row leads back to its first).
 
@@ -57,8 +71,9 @@ class Groups:
         return np.repeat(np.arange(len(self)), self.counts)
 
     def spread(self, per_item):
-        """One value (or row) per item repeated over that item's rows."""
-        return np.repeat(per_item, self.counts, axis=0)
+        """One value per item repeated over that item's rows (along the last axis, so
+        component-first ``(3, G)`` vectors spread to ``(3, N)``)."""
+        return np.repeat(per_item, self.counts, axis=-1)
 
     def local(self):
         """(N,) position of each row within its item."""
@@ -69,22 +84,36 @@ class Groups:
         it is closed, else the row itself (an open item has nothing after its end)."""
         return np.where(self.closed, self.first, rows)
 
-    def following(self, values):
-        """Each row's successor within its item; a last row takes its item's first row
-        (closed) or keeps its own value (open)."""
-        out = np.empty_like(values)
-        out[:-1] = values[1:]
-        last = self.last
-        out[last] = values[self.wrap(last)]
+    def _bounds(self, start, stop):
+        """``stop`` (None: the end) and the first rows, last rows and closed flags of the
+        items that overlap rows ``start:stop``."""
+        stop = self.size if stop is None else stop
+        lo, hi = np.searchsorted(self.last, start), np.searchsorted(self.first, stop)
+        return stop, self.first[lo:hi], self.last[lo:hi], self.closed[lo:hi]
+
+    def following(self, values, start=0, stop=None):
+        """Each row's successor within its item (rows along the last axis), for rows
+        ``start:stop``; a last row takes its item's first row (closed) or keeps its own
+        value (open)."""
+        stop, first, last, closed = self._bounds(start, stop)
+        out = np.empty(values.shape[:-1] + (stop - start,), values.dtype)
+        out[..., :-1] = values[..., start + 1:stop]
+        if stop < self.size:
+            out[..., -1] = values[..., stop]
+        inside = (last >= start) & (last < stop)
+        out[..., last[inside] - start] = values[..., np.where(closed, first, last)[inside]]
         return out
 
-    def preceding(self, values):
-        """Each row's predecessor within its item; a first row takes its item's last
-        row (closed) or keeps its own value (open)."""
-        out = np.empty_like(values)
-        out[1:] = values[:-1]
-        first = self.first
-        out[first] = values[np.where(self.closed, self.last, first)]
+    def preceding(self, values, start=0, stop=None):
+        """Each row's predecessor within its item, for rows ``start:stop``; a first row
+        takes its item's last row (closed) or keeps its own value (open)."""
+        stop, first, last, closed = self._bounds(start, stop)
+        out = np.empty(values.shape[:-1] + (stop - start,), values.dtype)
+        out[..., 1:] = values[..., start:stop - 1]
+        if start > 0:
+            out[..., 0] = values[..., start - 1]
+        inside = (first >= start) & (first < stop)
+        out[..., first[inside] - start] = values[..., np.where(closed, last, first)[inside]]
         return out
 
     def sums(self, values):

@@ -83,8 +83,8 @@ def splice(*pipes, transition="lcm", closed=False):
             for i, p in enumerate(pipes)]
     _add_transitions(surface, bridges, before, after, ends, sides, transition)
     vertices, faces, face_part = surface.build()
-    return Mesh(vertices, faces, face_part=face_part, part_names=surface.part_names,
-                attributes={"kind": "chain", "parts": len(surface.part_names)})
+    return Mesh.trusted(vertices, faces, face_part=face_part, part_names=surface.part_names,
+                        attributes={"kind": "chain", "parts": len(surface.part_names)})
 
 
 def _junctions(count, closed):
@@ -115,36 +115,34 @@ def _transition_tubes(tubes, before, after, sides):
     """
     lines, groups = tubes.lines, tubes.groups
     end, start = groups.last[before], groups.first[after]
-    e, s = lines.points[end], lines.points[start]
-    t1, t2 = lines.directions[end], lines.directions[start]
-    chord = norm(s - e)
+    e, s = lines.xyz[:, end], lines.xyz[:, start]
+    t1, t2 = lines.directions[:, end], lines.directions[:, start]
+    chord = norm(s - e, 0)
     r1, r2 = tubes.ring_radii[end], tubes.ring_radii[start]
     count = np.maximum(MIN_RINGS + 1,
                        np.ceil(RINGS_PER_RADIUS * chord / np.minimum(r1, r2)).astype(np.int64))
     curves = Groups(count + 1)
-    u = curves.local() * curves.spread(1.0 / count)
+    spread = curves.spread
+    u = curves.local() * spread(1.0 / count)
     u[curves.last] = 1.0                                           # as np.linspace does
     h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
     h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
-
-    def per_point(values):
-        return curves.spread(values)
-
-    points = (h00[:, None] * per_point(e) + (h10[:, None] * per_point(chord)[:, None])
-              * per_point(t1) + h01[:, None] * per_point(s)
-              + (h11[:, None] * per_point(chord)[:, None]) * per_point(t2))
+    chord = spread(chord)
+    points = (h00 * spread(e) + h10 * chord * spread(t1) + h01 * spread(s)
+              + h11 * chord * spread(t2))
     ease = 3 * u**2 - 2 * u**3
-    radii = per_point(r1) + per_point(r2 - r1) * ease
+    radii = spread(r1) + spread(r2 - r1) * ease
     bridges = Polylines(points, curves)
-    extent = (np.maximum.reduceat(points, curves.first) - np.minimum.reduceat(points, curves.first))
-    tolerance = 1e-9 * np.maximum(extent.max(axis=1), 1.0)     # as Path drops duplicates
-    is_segment = np.ones(len(points), bool)
+    extent = np.max(np.maximum.reduceat(points, curves.first, axis=1)
+                    - np.minimum.reduceat(points, curves.first, axis=1), axis=0)
+    tolerance = 1e-9 * np.maximum(extent, 1.0)                  # as Path drops duplicates
+    is_segment = np.ones(len(u), bool)
     is_segment[curves.last] = False
-    if (is_segment & (bridges.segment_lengths <= curves.spread(tolerance))).any():
+    if (is_segment & (bridges.segment_lengths <= spread(tolerance))).any():
         raise GeometryError("splice: the transition is too short for its rings; "
                             "leave more room between the pipes")
     return Tubes(bridges, radii, sides, tubes.miter_limit[before],
-                 normals=tubes.normals[end], end_normals=tubes.normals[start])
+                 normals=tubes.normals[:, end].T, end_normals=tubes.normals[:, start].T)
 
 
 def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):

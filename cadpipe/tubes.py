@@ -13,6 +13,7 @@ import numpy as np
 from . import clearance
 from ._vec import cross, dot
 from .frames import frames
+from .ragged import blocks
 
 
 @lru_cache(maxsize=256)
@@ -57,7 +58,7 @@ class Tubes:
 
     @property
     def normals(self):
-        """(N, 3) unit direction of each ring's vertex 0 (before miter stretch)."""
+        """(3, N) unit direction of each ring's vertex 0 (before miter stretch)."""
         return self._frames[0]
 
     @property
@@ -65,34 +66,36 @@ class Tubes:
         """(G,) see :func:`cadpipe.frames.frames`."""
         return self._frames[1]
 
-    @cached_property
+    @property
     def miter_stretch(self):
         """(N,) factor ``1 / cos(turn / 2)`` by which each ring is stretched in its bend plane."""
-        return 1.0 / np.cos(self.lines.turning_angles / 2)
+        return self.lines.miter_stretch
 
     @cached_property
     def axes(self):
-        """(N, 3, 3) per ring: the vectors that map ``(cos a, sin a)`` to a vertex offset,
-        then the ring's centre (see :func:`ring_basis`).
+        """(N, 3, 3) per ring: the two vectors that map ``(cos a, sin a)`` to a vertex
+        offset, then the ring's centre (see :func:`ring_basis`).
 
         Each ring is the circle of ``ring_radii`` in the plane normal to the
         tangent, stretched by :attr:`miter_stretch` along the bend direction so that
         it lies on both adjacent segments' cylinders.
         """
-        n = self.normals
-        b = cross(self.lines.tangents, n)
-        m = self.lines.bend_directions
-        extra = (self.miter_stretch - 1.0)[:, None]
-        r = self.ring_radii[:, None]
-        out = np.empty((len(n), 3, 3))
-        np.multiply(n + extra * dot(n, m)[:, None] * m, r, out=out[:, 0])
-        np.multiply(b + extra * dot(b, m)[:, None] * m, r, out=out[:, 1])
-        out[:, 2] = self.lines.points
+        lines = self.lines
+        out = np.empty((self.groups.size, 3, 3))
+        for rows in blocks(self.groups.size):
+            n = self.normals[:, rows]
+            b = cross(lines.tangents[:, rows], n, 0)
+            m = lines.bend_directions[:, rows]
+            extra = lines.miter_stretch[rows] - 1.0
+            r = self.ring_radii[rows]
+            out[rows, 0] = ((n + extra * dot(n, m, 0) * m) * r).T
+            out[rows, 1] = ((b + extra * dot(b, m, 0) * m) * r).T
+        out[:, 2] = lines.xyz.T
         return out
 
     def rings(self, rows, sides, out=None):
         """(len(rows), sides, 3) vertices of the rings at ``rows``, written into ``out``
-        if given."""
+        if given: one batched matrix product."""
         return np.matmul(ring_basis(sides), self.axes[rows], out=out)
 
     def self_intersections(self):
