@@ -116,9 +116,11 @@ def _distant_overlaps(tubes):
     path has a local minimum (a chord across the tube, not along it).
 
     Samples every quarter of each tube's smallest radius keep the detection error to
-    a few thousandths of the radius. One KD-tree holds every tube's samples, each
-    tube scaled by its largest diameter and laid apart from the others, so a
-    single query radius finds each tube's own close pairs and no pairs between tubes.
+    a few thousandths of the radius. Candidate pairs come from two sources that
+    together cover every pair within reach (twice the largest radius): pairs a few
+    samples apart (:func:`_band_pairs`) and pairs of chunks of samples a KD-tree
+    finds close (:func:`_chunk_pairs`); neither enumerates the many trivial pairs
+    of neighbours along the tube that a KD-tree over all samples would.
     """
     lines = tubes.lines
     groups = lines.groups
@@ -126,14 +128,18 @@ def _distant_overlaps(tubes):
     reach = 2.0 * np.maximum.reduceat(rho, groups.first)      # the farthest a pair can reach
     step = 0.25 * np.minimum.reduceat(rho, groups.first)
     samples, points, s, radii = _samples(tubes, step)
+    spacing = lines.lengths / np.where(samples.closed, samples.counts, samples.counts - 1)
+    near = np.ceil(reach / spacing).astype(np.int64)   # samples a straight run stays in reach
+    chunk = np.maximum(near // 2, 1)
+    # beyond this many samples apart, chunks whose middles are within reach are not
+    # neighbours along the tube; a tube is never farther apart than this around it
+    count = samples.counts
+    band = np.minimum(near + 2 * chunk, np.where(samples.closed, count // 2, count - 1))
+    i, j = (np.concatenate(p) for p in zip(_band_pairs(samples, points, radii, band),
+                                           _chunk_pairs(samples, points, reach, spacing,
+                                                        chunk, band)))
+    i, j = np.minimum(i, j), np.maximum(i, j)
     points = np.ascontiguousarray(points.T)                   # rows: fast to gather pairs of
-    scaled = points / samples.spread(reach)[:, None]
-    low = np.minimum.reduceat(scaled[:, 0], samples.first)
-    high = np.maximum.reduceat(scaled[:, 0], samples.first)
-    apart = np.concatenate([[0.0], np.cumsum(high - low + 2.0)])[:-1] - low
-    scaled[:, 0] += samples.spread(apart)
-    pairs = cKDTree(scaled).query_pairs(1.0 + 1e-9, output_type="ndarray")
-    i, j = pairs[:, 0], pairs[:, 1]
     tube = samples.index[i]
     length = lines.lengths[tube]
     gap = np.abs(s[i] - s[j])
@@ -143,7 +149,7 @@ def _distant_overlaps(tubes):
     dist = norm(points[i] - points[j])
     keep = np.flatnonzero(dist < radii[i] + radii[j])
     i, j, dist = i[keep], j[keep], dist[keep]
-    # a local minimum over the sample grid; (i + 1, j) first: it rules out most pairs
+    # a local minimum over the sample grid
     first, count = samples.first, samples.counts
     for di, dj in ((1, 0), (-1, 0), (0, -1), (0, 1)):
         tube = samples.index[i]
@@ -174,3 +180,76 @@ def _distant_overlaps(tubes):
                 f"{radii[a]:.6g} + {radii[b]:.6g}")
 
     return tube, describe
+
+
+def _band_pairs(samples, points, radii, band):
+    """Pairs of samples at most ``band`` (per tube) apart along their tube (around a
+    closed one), each pair once, that could be a local minimum of distance: closer
+    than their radii, and no farther apart than the pair one sample shorter.
+
+    Each tube's samples are followed by ``band`` more (its first ones again if it
+    is closed), so the pairs ``m`` apart are two shifted slices of one array. Tubes
+    are laid out widest band first: the tubes still taking part at each ``m`` are a
+    prefix of it.
+    """
+    order = np.argsort(-band, kind="stable")
+    n, width = samples.counts[order], band[order]
+    ext = Groups(n + width + 1)
+    local = ext.local()
+    count = ext.spread(n)
+    inside = local < count
+    closed = ext.spread(samples.closed[order])
+    src = ext.spread(samples.first[order]) + local % count
+    p, r = points[:, src], radii[src]
+    slack = 1.0 + 1e-9                  # a sieve: the exact test of the candidates follows
+    previous = np.zeros(ext.size)       # squared distances of the pairs one sample shorter
+    pairs_i, pairs_j = [], []
+    for m in range(1, int(width.max(initial=0)) + 1):
+        end = int(ext.starts[np.searchsorted(-width, -m, side="right")])   # tubes with band >= m
+        diff = p[:, m:end] - p[:, :end - m]
+        d2 = dot(diff, diff, 0)
+        head = slice(0, end - m)
+        once = np.where(closed[head], (2 * m < count[head]) | ((2 * m == count[head])
+                                                               & (local[head] < m)),
+                        inside[m:end])
+        q = np.flatnonzero(inside[head] & once & (d2 <= previous[head] * slack)
+                           & (d2 < np.square(r[head] + r[m:end]) * slack))
+        pairs_i.append(src[q])
+        pairs_j.append(src[q + m])
+        previous = d2
+    return np.concatenate(pairs_i, dtype=np.int64), np.concatenate(pairs_j, dtype=np.int64)
+
+
+def _chunk_pairs(samples, points, reach, spacing, chunk, band):
+    """Pairs of samples more than ``band`` apart along their tube that may lie within
+    ``reach``: all pairs from two chunks of ``chunk`` consecutive samples whose
+    middle samples are within ``reach`` plus a chunk's length.
+
+    One KD-tree holds every tube's chunks, each tube scaled by that distance and laid
+    apart from the others, so a single query radius finds each tube's own pairs.
+    """
+    n = samples.counts
+    chunks = Groups(-(-n // chunk), samples.closed)
+    k = chunks.spread(chunk)
+    start = chunks.spread(samples.first) + chunks.local() * k
+    size = np.minimum(k, chunks.spread(samples.first + n) - start)
+    middle = start + np.minimum(k // 2, size - 1)
+    scaled = np.ascontiguousarray((points[:, middle] / chunks.spread(reach + chunk * spacing)).T)
+    low = np.minimum.reduceat(scaled[:, 0], chunks.first)
+    high = np.maximum.reduceat(scaled[:, 0], chunks.first)
+    scaled[:, 0] += chunks.spread(np.concatenate([[0.0], np.cumsum(high - low + 2.0)])[:-1] - low)
+    a, b = cKDTree(scaled).query_pairs(1.0 + 1e-9, output_type="ndarray").T
+    band_of = band[chunks.index]
+    keep = np.flatnonzero((b - a + 1) * k[a] - 1 > band_of[a])   # else all within the band
+    a, b = a[keep], b[keep]
+    # every sample of chunk a with every sample of chunk b
+    pairs = Groups(size[a] * size[b])
+    offset = pairs.local()
+    width = pairs.spread(size[b])
+    i = pairs.spread(start[a]) + offset // width
+    j = pairs.spread(start[b]) + offset % width
+    m = j - i
+    count = n[samples.index[i]]
+    m = np.where(samples.closed[samples.index[i]], np.minimum(m, count - m), m)
+    keep = np.flatnonzero(m > band[samples.index[i]])
+    return i[keep], j[keep]
