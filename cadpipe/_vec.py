@@ -7,6 +7,8 @@ rows of 3. einsum is several times faster than np.linalg.norm either way.
 
 import numpy as np
 
+_DOT = {0: "i...,i...->...", -1: "...i,...i->..."}
+
 
 def norm(v, axis=-1):
     """Euclidean length of each vector."""
@@ -14,8 +16,8 @@ def norm(v, axis=-1):
 
 
 def dot(a, b, axis=-1):
-    """Dot product of each pair of vectors."""
-    return np.einsum("i...,i...->...", np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0))
+    """Dot product of each pair of vectors (``axis`` is 0 or -1)."""
+    return np.einsum(_DOT[axis], a, b)
 
 
 def unit(v, axis=-1):
@@ -27,7 +29,10 @@ def unit(v, axis=-1):
 def cross(a, b, axis=-1):
     """Cross product of each pair of vectors, without np.cross's axis juggling."""
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    a, b, o = np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0), np.moveaxis(out, axis, 0)
+    if axis != 0:
+        a, b, o = np.moveaxis(a, axis, 0), np.moveaxis(b, axis, 0), np.moveaxis(out, axis, 0)
+    else:
+        o = out
     o[0] = a[1] * b[2] - a[2] * b[1]
     o[1] = a[2] * b[0] - a[0] * b[2]
     o[2] = a[0] * b[1] - a[1] * b[0]

@@ -13,7 +13,7 @@ import numpy as np
 
 
 #: rows per block for per-point work done block by block (see :func:`blocks`)
-BLOCK = 8192
+BLOCK = 16384
 
 
 def blocks(size):
