@@ -34,10 +34,22 @@ def as_direction(value, name):
 
 
 def _reference(tangents):
-    """A perpendicular to each tangent, from the coordinate axis least aligned with it."""
-    axis = np.zeros_like(tangents)
-    axis[np.argmin(np.abs(tangents), axis=0), np.arange(tangents.shape[1])] = 1.0
-    u = unit(cross(tangents, axis, 0), 0)
+    """A perpendicular to each tangent, from the coordinate axis least aligned with it.
+
+    ``t x e_k`` for the axis ``e_k`` with the smallest ``|t_k|`` (the first on ties),
+    built from the components it picks rather than from a one-hot axis.
+    """
+    x, y, z = tangents
+    a = np.abs(tangents)
+    on_x = (a[0] <= a[1]) & (a[0] <= a[2])
+    on_y = ~on_x & (a[1] <= a[2])
+    on_z = ~(on_x | on_y)
+    u = np.empty_like(tangents)
+    np.subtract(on_z * y, on_y * z, out=u[0])          # t x e_x = (0, z, -y), and so on
+    np.subtract(on_x * z, on_z * x, out=u[1])
+    np.subtract(on_y * x, on_x * y, out=u[2])
+    size = norm(u, 0)
+    u /= np.where(size > 0, size, 1.0)                 # zero only for a zero tangent
     return u, cross(tangents, u, 0)
 
 

@@ -8,9 +8,12 @@ transitions) shares one orientation rule: faces point away from the axis.
 vertex and one face array.
 """
 
-from functools import lru_cache
+from functools import lru_cache, partial
 
 import numpy as np
+
+from .ragged import Groups
+from .tubes import ring_basis
 
 
 @lru_cache(maxsize=256)
@@ -117,8 +120,10 @@ class Surface:
 
     Each block reserves its rows now and gives a function that fills them later,
     so a surface of millions of vertices is written straight into its final
-    arrays, with no concatenation. Face blocks may carry a part label (an index
-    into :attr:`part_names`), as a splice's pipes and transitions do.
+    arrays, with no concatenation. Runs of rings (:meth:`add_rings`) are laid out
+    grouped by ring size, so a thousand pipes of a dozen sizes cost a dozen matrix
+    products and face broadcasts. Face blocks may carry a part label (an index into
+    :attr:`part_names`), as a splice's pipes and transitions do.
     """
 
     def __init__(self):
@@ -128,6 +133,13 @@ class Surface:
         self._part_index = {}
         self._vertex_blocks = []
         self._face_blocks = []
+
+    def part(self, name):
+        """The index of part ``name`` (added if new)."""
+        if name not in self._part_index:
+            self._part_index[name] = len(self.part_names)
+            self.part_names.append(name)
+        return self._part_index[name]
 
     def add_vertices(self, count, fill):
         """Reserve ``count`` vertices; ``fill(out)`` writes their ``(count, 3)`` rows.
@@ -145,12 +157,46 @@ class Surface:
         self._face_blocks.append((self.face_count, count, fill, part))
         self.face_count += count
 
-    def part(self, name):
-        """The index of part ``name`` (added if new)."""
-        if name not in self._part_index:
-            self._part_index[name] = len(self.part_names)
-            self.part_names.append(name)
-        return self._part_index[name]
+    def add_rings(self, runs, sides, parts=None, *, closed=None, seam_shift=None):
+        """Lay out runs of rings and the side faces joining each run's rings.
+
+        Parameters
+        ----------
+        runs : list of (n_i, 3, 3) arrays
+            Each run's ring axes and centres (see :func:`~cadpipe.tubes.ring_basis`).
+        sides : (R,) array_like of int
+            Vertices per ring of each run.
+        parts : (R,) array_like of int, optional
+            Part index of each run's faces.
+        closed, seam_shift : (R,) array_like, optional
+            Runs whose last ring joins their first, its vertex k meeting vertex
+            ``k + seam_shift`` (see :func:`band_faces`).
+
+        Returns
+        -------
+        (R,) int array: the index of each run's first vertex.
+        """
+        sides = np.asarray(sides, dtype=np.int64)
+        count = np.array([len(run) for run in runs], dtype=np.int64)
+        closed = np.zeros(len(runs), bool) if closed is None else np.asarray(closed, bool)
+        first = np.empty(len(runs), np.int64)
+        for size in np.unique(sides).tolist():
+            members = np.flatnonzero(sides == size)
+            n = count[members]
+            starts = self.vertex_count + size * (np.cumsum(n) - n)
+            first[members] = starts
+            self.add_vertices(int(n.sum()) * size, partial(
+                _write_rings, [runs[i] for i in members.tolist()], size))
+            bands = Groups(n - 1)
+            band_first = bands.spread(starts) + size * bands.local()
+            part = None if parts is None else np.repeat(np.asarray(parts)[members],
+                                                        (n - 1) * 2 * size)
+            self.add_faces(bands.size * 2 * size, partial(_write_bands, band_first, size), part)
+        for i in np.flatnonzero(closed).tolist():
+            self.add_faces(2 * int(sides[i]), partial(
+                _write_seam, int(first[i]), int(count[i]), int(sides[i]),
+                int(seam_shift[i])), None if parts is None else int(parts[i]))
+        return first
 
     def build(self):
         """``(vertices, faces, face_part)``; ``face_part`` is None when no block has a part."""
@@ -165,3 +211,25 @@ class Surface:
             if labelled:
                 face_part[first:first + count] = part
         return vertices, faces, face_part
+
+
+def _write_rings(runs, sides, out):
+    """Ring vertices of same-size runs, one batched matrix product for all of them."""
+    axes = runs[0] if len(runs) == 1 else np.concatenate(runs)
+    np.matmul(ring_basis(sides), axes, out=out.reshape(len(axes), sides, 3))
+
+
+def _write_bands(band_first, sides, out):
+    """Side faces of bands whose first ring starts at vertex ``band_first``."""
+    np.add(band_first[:, None], _band_pattern(sides), out=out.reshape(len(band_first), -1))
+
+
+def _write_seam(first, n_rings, sides, seam_shift, out):
+    """The band closing a run of rings: its last ring back to its first."""
+    k = np.arange(sides)
+    k1 = (k + 1) % sides
+    last = (n_rings - 1) * sides + first
+    ks = (k + seam_shift) % sides + first
+    ks1 = (k1 + seam_shift) % sides + first
+    out[:] = np.concatenate([np.stack([last + k, last + k1, ks], 1),
+                             np.stack([last + k1, ks1, ks], 1)])

@@ -6,7 +6,7 @@ pieces a splice needs (rings, frames) are public, so a transition between two
 pipes is built from the same rings the pipes themselves use.
 """
 
-from functools import cached_property
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from ._validate import as_choice, as_int, as_positive
 from ._vec import cross
 from .errors import GeometryError, InputError
 from .frames import FRAME_MODES, as_direction
-from .loft import Surface, band_face_count, band_faces, fan_faces
+from .loft import Surface, fan_faces
 from .mesh import Mesh
 from .path import Path, polylines
 from .tubes import Tubes, ring_basis
@@ -224,7 +224,7 @@ class Pipe:
         piece.
         """
         surface = Surface()
-        add_surface(surface, self._tubes, 0, self, cap_start=cap_start, cap_end=cap_end)
+        add_pipe_surfaces(surface, self._tubes, [self], cap_start=[cap_start], cap_end=[cap_end])
         vertices, faces, _ = surface.build()
         return vertices, faces
 
@@ -249,8 +249,9 @@ class Pipe:
         pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
         if not self.closed and self.caps == "round":
             for row, sign in ((0, -1), (len(rings) - 1, 1)):
-                cap, pole = cap_rings(self._tubes, row, sign, self)
-                pieces.append(np.concatenate([rings[row], cap.reshape(-1, 3), pole[None]]))
+                axes, pole = cap_axes(self._tubes, row, sign, self)
+                cap = np.matmul(ring_basis(self.sides), axes).reshape(-1, 3)
+                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
         return pieces
 
     def _repaired_mesh(self):
@@ -273,54 +274,59 @@ def tubes_of(pipes):
                  end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]))
 
 
-def cap_rings(tubes, row, sign, pipe):
+def cap_axes(tubes, row, sign, pipe):
     """A round cap's latitude rings past the end ring at ``row`` (outward from the
-    tube, along ``sign`` times the tangent) and its pole."""
+    tube, along ``sign`` times the tangent) as ring axes and centres (see
+    :func:`~cadpipe.tubes.ring_basis`), and its pole."""
     m = pipe.cap_segments
     lat = (np.pi / 2) * np.arange(1, m) / m
-    centre = tubes.lines.xyz[:, row]
-    tangent = tubes.lines.tangents[:, row] * sign
     scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
-    circle = ring_basis(pipe.sides)[:, :2] @ tubes.axes[row, :2]           # (sides, 3)
-    radius = tubes.ring_radii[row] * scale
-    rings = (centre + (scale * np.cos(lat))[:, None, None] * circle[None]
-             + (radius * np.sin(lat))[:, None, None] * tangent)
-    return rings, centre + radius * tangent
+    centre = tubes.lines.xyz[:, row]
+    rise = tubes.ring_radii[row] * scale * sign * tubes.lines.tangents[:, row]
+    axes = np.empty((m - 1, 3, 3))
+    axes[:, :2] = (scale * np.cos(lat))[:, None, None] * tubes.axes[row, :2]
+    axes[:, 2] = centre + np.sin(lat)[:, None] * rise
+    return axes, centre + rise
 
 
-def add_surface(surface, tubes, group, pipe, *, cap_start, cap_end, part=None):
-    """Lay out tube ``group`` of ``tubes`` (made from ``pipe``) in ``surface``: its
-    rings, side faces and the requested caps (see :meth:`Pipe.surface`).
+def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
+    """Lay out the pipes (``tubes``' groups, in order) in ``surface``: their rings, side
+    faces and the requested caps (see :meth:`Pipe.surface`).
 
-    Returns the vertex index of its first and last ring's vertex 0.
+    Returns the vertex index of each pipe's first and last ring (its own, not a cap's).
     """
-    n = pipe.sides
-    first, last = int(tubes.groups.first[group]), int(tubes.groups.last[group])
-    count = last - first + 1
-    round_caps = pipe.caps == "round" and not pipe.closed
-    start = cap_rings(tubes, first, -1, pipe) if cap_start and round_caps else None
-    end = cap_rings(tubes, last, +1, pipe) if cap_end and round_caps else None
-    if start is not None:
-        surface.add_vertices(start[0].size // 3,
-                             lambda out: np.copyto(out, start[0][::-1].reshape(-1, 3)))
-    ring0 = surface.add_vertices(count * n, lambda out: tubes.rings(
-        slice(first, last + 1), n, out=out.reshape(count, n, 3)))
-    if end is not None:
-        surface.add_vertices(end[0].size // 3, lambda out: np.copyto(out, end[0].reshape(-1, 3)))
-    band_start = ring0 - (0 if start is None else start[0].size // 3)
-    bands = count + (0 if start is None else len(start[0])) + (0 if end is None else len(end[0]))
-    closed = pipe.closed
-    shift = int(tubes.seam_shift[group])
-    surface.add_faces(band_face_count(bands, n, closed), lambda out: band_faces(
-        bands, n, closed=closed, seam_shift=shift, first=band_start, out=out), part)
-    for wanted, cap, ring, at_end in ((cap_start, start, band_start, False),
-                                      (cap_end, end, band_start + (bands - 1) * n, True)):
-        if not wanted or closed:
-            continue
-        apex = None
-        if cap is not None:
-            apex = surface.add_vertices(1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
-        surface.add_faces(n if apex is not None else n - 2, lambda out, ring=ring, apex=apex,
-                          at_end=at_end: np.copyto(out, fan_faces(ring, n, apex=apex,
-                                                                  at_end=at_end)), part)
-    return ring0, ring0 + (count - 1) * n
+    groups, sides = tubes.groups, tubes.sides
+    firsts, lasts = groups.first.tolist(), groups.last.tolist()
+    runs = [tubes.axes[a:b + 1] for a, b in zip(firsts, lasts)]
+    # caps: at most the two ends of a chain, or a lone pipe's
+    capped = [g for g, pipe in enumerate(pipes) if (cap_start[g] or cap_end[g]) and not pipe.closed]
+    caps, rings_before = {}, np.zeros(len(pipes), np.int64)
+    for g in capped:
+        pipe = pipes[g]
+        round_caps = pipe.caps == "round"
+        start = cap_axes(tubes, firsts[g], -1, pipe) if cap_start[g] and round_caps else None
+        end = cap_axes(tubes, lasts[g], +1, pipe) if cap_end[g] and round_caps else None
+        if start is not None or end is not None:
+            run = runs[g]
+            runs[g] = np.concatenate([run[:0] if start is None else start[0][::-1], run,
+                                      run[:0] if end is None else end[0]])
+            rings_before[g] = 0 if start is None else len(start[0])
+        caps[g] = (start, end)
+    first = surface.add_rings(runs, sides, parts, closed=groups.closed, seam_shift=tubes.seam_shift)
+    for g in capped:
+        n, part = int(sides[g]), None if parts is None else int(parts[g])
+        for wanted, cap, ring, at_end in (
+                (cap_start[g], caps[g][0], int(first[g]), False),
+                (cap_end[g], caps[g][1], int(first[g]) + (len(runs[g]) - 1) * n, True)):
+            if not wanted:
+                continue
+            apex = None if cap is None else surface.add_vertices(
+                1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
+            surface.add_faces(n if cap is not None else n - 2, partial(
+                _write_fan, ring, n, apex, at_end), part)
+    ring0 = first + rings_before * sides
+    return ring0, ring0 + (groups.counts - 1) * sides
+
+
+def _write_fan(ring, sides, apex, at_end, out):
+    out[:] = fan_faces(ring, sides, apex=apex, at_end=at_end)

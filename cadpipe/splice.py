@@ -14,10 +14,10 @@ import numpy as np
 from ._validate import as_choice
 from ._vec import norm
 from .errors import GeometryError, InputError
-from .loft import Surface, band_face_count, band_faces, zipper_faces
+from .loft import Surface, zipper_faces
 from .mesh import Mesh
 from .path import Polylines
-from .pipe import Pipe, add_surface, tubes_of
+from .pipe import Pipe, add_pipe_surfaces, tubes_of
 from .ragged import Groups
 from .tubes import Tubes
 
@@ -78,9 +78,11 @@ def splice(*pipes, transition="lcm", closed=False):
                                 f"{problems[0]}; move the pipes apart or align their ends")
 
     surface = Surface()
-    ends = [add_surface(surface, tubes, i, p, part=f"pipe{i}",
-                        cap_start=i == 0 and not closed, cap_end=i == len(pipes) - 1 and not closed)
-            for i, p in enumerate(pipes)]
+    last = len(pipes) - 1
+    ends = add_pipe_surfaces(surface, tubes, pipes, parts=[surface.part(f"pipe{i}")
+                                                           for i in range(len(pipes))],
+                             cap_start=[i == 0 and not closed for i in range(len(pipes))],
+                             cap_end=[i == last and not closed for i in range(len(pipes))])
     _add_transitions(surface, bridges, before, after, ends, sides, transition)
     vertices, faces, face_part = surface.build()
     return Mesh.trusted(vertices, faces, face_part=face_part, part_names=surface.part_names,
@@ -147,30 +149,34 @@ def _transition_tubes(tubes, before, after, sides):
 
 def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
     """Lay out each transition's inner rings, their side faces and the stitches that
-    join them to each other and to the pipes' end rings."""
+    join them to each other and to the pipes' end rings (``ends``: each pipe's first
+    and last ring)."""
     groups = bridges.groups
-    stitches = []                      # (from ring, its size, to ring, its size, offset, part)
-    for k, (a, b) in enumerate(zip(before.tolist(), after.tolist())):
-        part = surface.part(f"transition{a}")
-        n1, n2 = int(pipe_sides[a]), int(pipe_sides[b])
-        n3 = int(bridges.sides[k])
-        first, last = int(groups.first[k]) + 1, int(groups.last[k])       # inner rings
-        inner = last - first
-        # merge: n1-gon rings for the first half, n2-gon after; lcm: all lcm-gon rings
-        cut = first + inner // 2 if mode == "merge" and n1 != n2 else first
-        blocks = [(first, cut, n1), (cut, last, n3)] if cut > first else [(first, last, n3)]
-        prev, prev_n = ends[a][1], n1
-        for lo, hi, size in blocks:
-            ring0 = surface.add_vertices((hi - lo) * size, lambda out, lo=lo, hi=hi, size=size:
-                                         bridges.rings(slice(lo, hi), size,
-                                                       out=out.reshape(hi - lo, size, 3)))
-            surface.add_faces(band_face_count(hi - lo, size), lambda out, ring0=ring0, n=hi - lo,
-                              size=size: band_faces(n, size, first=ring0, out=out), part)
-            stitches.append((prev, prev_n, ring0, size, 0.0, part))
-            prev, prev_n = ring0 + (hi - lo - 1) * size, size
-        # the transition frames meet p2's ring with a whole-step offset on the n3 grid
-        offset = -int(bridges.seam_shift[k]) * n2 / n3
-        stitches.append((prev, prev_n, ends[b][0], n2, offset, part))
-    a_start, n_a, b_start, n_b, offset, part = map(np.array, zip(*stitches))
+    part = np.array([surface.part(f"transition{a}") for a in before.tolist()])
+    n1, n2, n3 = pipe_sides[before], pipe_sides[after], bridges.sides
+    first, last = groups.first + 1, groups.last                       # inner rings
+    # merge: n1-gon rings for the first half, n2-gon after; lcm: all lcm-gon rings
+    two = (n1 != n2) & (mode == "merge")
+    cut = np.where(two, first + (last - first) // 2, first)
+    # runs of rings: the n1-gon blocks of merged transitions, then every n3-gon block
+    lo = np.concatenate([first[two], cut])
+    hi = np.concatenate([cut[two], last])
+    sides = np.concatenate([n1[two], n3])
+    first_ring = surface.add_rings([bridges.axes[a:b] for a, b in zip(lo.tolist(), hi.tolist())],
+                                   sides, np.concatenate([part[two], part]))
+    last_ring = first_ring + (hi - lo - 1) * sides
+    merged, main = slice(0, int(two.sum())), slice(int(two.sum()), None)
+    start, end = first_ring[main], last_ring[main]           # each transition's n3 block
+    opening = start.copy()                                   # each transition's first ring
+    opening[two] = first_ring[merged]
+    # the pipe's end ring to the first block; the n1 block to the n3 block; the n3 block
+    # to the next pipe's start ring, which the transition frames meet with a whole-step
+    # offset on the n3 grid
+    a_start = np.concatenate([ends[1][before], last_ring[merged], end])
+    n_a = np.concatenate([n1, n1[two], n3])
+    b_start = np.concatenate([opening, start[two], ends[0][after]])
+    n_b = np.concatenate([np.where(two, n1, n3), n3[two], n2])
+    offset = np.concatenate([np.zeros(len(n1) + int(two.sum())), -bridges.seam_shift * n2 / n3])
+    labels = np.concatenate([part, part[two], part])
     surface.add_faces(int((n_a + n_b).sum()), lambda out: np.copyto(
-        out, zipper_faces(a_start, n_a, b_start, n_b, offset)), np.repeat(part, n_a + n_b))
+        out, zipper_faces(a_start, n_a, b_start, n_b, offset)), np.repeat(labels, n_a + n_b))
