@@ -190,33 +190,43 @@ def _band_pairs(samples, points, radii, band):
     Each tube's samples are followed by ``band`` more (its first ones again if it
     is closed), so the pairs ``m`` apart are two shifted slices of one array. Tubes
     are laid out widest band first: the tubes still taking part at each ``m`` are a
-    prefix of it.
+    prefix of it. The loop's arrays are allocated once and reused.
     """
     order = np.argsort(-band, kind="stable")
     n, width = samples.counts[order], band[order]
     ext = Groups(n + width + 1)
     local = ext.local()
     count = ext.spread(n)
-    inside = local < count
-    closed = ext.spread(samples.closed[order])
     src = ext.spread(samples.first[order]) + local % count
+    # the largest m at which a sample still starts a new pair: an open tube ends; around
+    # a closed one, the pair m apart is the pair count - m apart the other way
+    closed = ext.spread(samples.closed[order])
+    halfway = (count - 1) // 2 + ((count % 2 == 0) & (local < count // 2))
+    reach_m = np.where(local >= count, -1, np.where(closed, halfway, count - 1 - local))
     p, r = points[:, src], radii[src]
     slack = 1.0 + 1e-9                  # a sieve: the exact test of the candidates follows
-    previous = np.zeros(ext.size)       # squared distances of the pairs one sample shorter
+    diff = np.empty((3, ext.size))
+    d2, previous = np.empty(ext.size), np.zeros(ext.size)   # previous: one sample shorter
+    bound = np.empty(ext.size)
+    keep, test = np.empty(ext.size, bool), np.empty(ext.size, bool)
     pairs_i, pairs_j = [], []
     for m in range(1, int(width.max(initial=0)) + 1):
         end = int(ext.starts[np.searchsorted(-width, -m, side="right")])   # tubes with band >= m
-        diff = p[:, m:end] - p[:, :end - m]
-        d2 = dot(diff, diff, 0)
-        head = slice(0, end - m)
-        once = np.where(closed[head], (2 * m < count[head]) | ((2 * m == count[head])
-                                                               & (local[head] < m)),
-                        inside[m:end])
-        q = np.flatnonzero(inside[head] & once & (d2 <= previous[head] * slack)
-                           & (d2 < np.square(r[head] + r[m:end]) * slack))
+        size = end - m
+        dv, d, lim, ok, t = diff[:, :size], d2[:size], bound[:size], keep[:size], test[:size]
+        np.subtract(p[:, m:end], p[:, :size], out=dv)
+        np.einsum("i...,i...->...", dv, dv, out=d)
+        np.greater_equal(reach_m[:size], m, out=ok)
+        np.multiply(previous[:size], slack, out=lim)
+        ok &= np.less_equal(d, lim, out=t)
+        np.add(r[:size], r[m:end], out=lim)
+        np.square(lim, out=lim)
+        lim *= slack
+        ok &= np.less(d, lim, out=t)
+        q = np.flatnonzero(ok)
         pairs_i.append(src[q])
         pairs_j.append(src[q + m])
-        previous = d2
+        d2, previous = previous, d2
     return np.concatenate(pairs_i, dtype=np.int64), np.concatenate(pairs_j, dtype=np.int64)
 
 
