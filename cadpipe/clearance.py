@@ -65,11 +65,12 @@ def _local_overlaps(tubes):
     """
     lines = tubes.lines
     groups = lines.groups
-    d = lines.directions
-    t, t_next = lines.tangents, groups.following(lines.tangents)
-    # g = -(t - (t.d) d) / (t.d) = d - t / (t.d), so g_start - g_end = t_next/a_next - t/a
-    with np.errstate(divide="ignore", invalid="ignore"):    # folds: found by _miter_limit
-        spread = norm(t_next / dot(t_next, d, 0) - t / dot(t, d, 0), 0)
+    # with t the bisector of the segments at a point, t.d = cos(turn / 2) = 1 / stretch
+    # for both segments there, so g = d - t * stretch and the difference across segment
+    # j is the change of t * stretch from point j to point j + 1
+    with np.errstate(invalid="ignore"):                        # folds: found by _miter_limit
+        lean = lines.tangents * lines.miter_stretch
+        spread = norm(groups.following(lean) - lean, 0)
     rho = tubes.ring_radii
     is_segment = np.ones(len(rho), bool)
     is_segment[groups.last] = groups.closed
