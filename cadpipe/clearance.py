@@ -5,7 +5,7 @@ overlap within one segment (the radius exceeds the local bend radius), and two
 parts of the tube that are far apart along the path but closer in space than the
 sum of their radii. All three run over a whole batch of tubes at once
 (:class:`~cadpipe.tubes.Tubes`): one pass over all points, one KD-tree over all
-samples.
+tubes' samples.
 """
 
 import numpy as np
@@ -114,7 +114,33 @@ def _samples(tubes, step):
 
 def _distant_overlaps(tubes):
     """Pairs of path samples closer than their radii where the distance along the
-    path has a local minimum (a chord across the tube, not along it).
+    path has a local minimum (a chord across the tube, not along it); see
+    :func:`distant_pairs`."""
+    lines = tubes.lines
+    groups = lines.groups
+    samples, s, radii, i, j, dist = distant_pairs(tubes)
+    tube = samples.index[i]
+
+    def point_at(sample):
+        """The path point starting the segment a sample lies on."""
+        g = samples.index[sample]
+        first, last = groups.first[g], groups.last[g]
+        return first + int(np.searchsorted(lines.arc_length[first:last + 1], s[sample],
+                                           side="right")) - 1
+
+    def describe(hit):
+        a, b = i[hit], j[hit]
+        return (f"{_where(lines, point_at(a))} and {_where(lines, point_at(b))}: the tube "
+                f"passes within {dist[hit]:.6g} of itself, less than its radii "
+                f"{radii[a]:.6g} + {radii[b]:.6g}")
+
+    return tube, describe
+
+
+def distant_pairs(tubes):
+    """Sample pairs, one tube's each, closer than their radii where the distance
+    along the path has a local minimum over the sample grid and the samples are more
+    than two steps apart along the path.
 
     Samples every quarter of each tube's smallest radius keep the detection error to
     a few thousandths of the radius. Candidate pairs come from two sources that
@@ -162,25 +188,7 @@ def _distant_overlaps(tubes):
         keep = np.flatnonzero(~valid | (norm(points[ii] - points[jj]) >= dist))
         i, j, dist = i[keep], j[keep], dist[keep]
     order = np.lexsort((j, i))
-    i, j, dist = i[order], j[order], dist[order]
-    tube = samples.index[i]
-
-    def point_at(sample):
-        """The path point starting the segment a sample lies on."""
-        first, last = groups.first[tube_of(sample)], groups.last[tube_of(sample)]
-        return first + int(np.searchsorted(lines.arc_length[first:last + 1], s[sample],
-                                           side="right")) - 1
-
-    def tube_of(sample):
-        return samples.index[sample]
-
-    def describe(hit):
-        a, b = i[hit], j[hit]
-        return (f"{_where(lines, point_at(a))} and {_where(lines, point_at(b))}: the tube "
-                f"passes within {dist[hit]:.6g} of itself, less than its radii "
-                f"{radii[a]:.6g} + {radii[b]:.6g}")
-
-    return tube, describe
+    return samples, s, radii, i[order], j[order], dist[order]
 
 
 def _band_pairs(samples, points, radii, band):

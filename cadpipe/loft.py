@@ -18,44 +18,15 @@ from .tubes import ring_basis
 
 @lru_cache(maxsize=256)
 def _band_pattern(sides):
-    """(1, 6 * sides) faces of the band between ring 0 and ring 1, flattened: quads
-    (a, b, d, c) as triangles (a, b, c), (b, d, c)."""
+    """(1, 6 * sides) side faces between ring 0 and ring 1 (vertices ``0..2*sides-1``),
+    flattened: each quad (a, b, d, c) as triangles (a, b, c), (b, d, c). Every band
+    is this one shifted by whole rings."""
     k = np.arange(sides)
     k1 = (k + 1) % sides
     tri = np.stack([np.stack([k, k1, k + sides], 1), np.stack([k1, k1 + sides, k + sides], 1)],
                    1).reshape(1, -1)
     tri.flags.writeable = False
     return tri
-
-
-def band_faces(n_rings, sides, *, closed=False, seam_shift=0, first=0, out=None):
-    """Side faces joining consecutive rings of equal size.
-
-    Ring ``i`` starts at vertex ``first + i * sides``. For a closed tube the last
-    ring joins the first, its vertex ``k`` meeting the first ring's vertex
-    ``k + seam_shift``. ``out`` (an ``(F, 3)`` int64 array) receives the faces
-    without an extra copy; its length must be :func:`band_face_count`.
-    """
-    n_bands = n_rings - 1
-    if out is None:
-        out = np.empty((band_face_count(n_rings, sides, closed), 3), np.int64)
-    # every band is the first one shifted by whole rings: one broadcast add, rows of 6*sides
-    offsets = np.arange(first, first + n_bands * sides, sides, dtype=np.int64)
-    np.add(offsets[:, None], _band_pattern(sides), out=out[: n_bands * 2 * sides].reshape(
-        n_bands, -1))
-    if closed:
-        k = np.arange(sides)
-        k1 = (k + 1) % sides
-        last = (n_rings - 1) * sides + first
-        ks = (k + seam_shift) % sides + first
-        ks1 = (k1 + seam_shift) % sides + first
-        out[n_bands * 2 * sides:] = np.concatenate([np.stack([last + k, last + k1, ks], 1),
-                                                    np.stack([last + k1, ks1, ks], 1)])
-    return out
-
-
-def band_face_count(n_rings, sides, closed=False):
-    return 2 * sides * (n_rings if closed else n_rings - 1)
 
 
 def fan_faces(ring_start, sides, *, apex=None, at_end=False):
@@ -169,8 +140,8 @@ class Surface:
         parts : (R,) array_like of int, optional
             Part index of each run's faces.
         closed, seam_shift : (R,) array_like, optional
-            Runs whose last ring joins their first, its vertex k meeting vertex
-            ``k + seam_shift`` (see :func:`band_faces`).
+            Runs whose last ring joins their first, its vertex k meeting the first
+            ring's vertex ``k + seam_shift``.
 
         Returns
         -------
@@ -222,6 +193,11 @@ def _write_rings(runs, sides, out):
 def _write_bands(band_first, sides, out):
     """Side faces of bands whose first ring starts at vertex ``band_first``."""
     np.add(band_first[:, None], _band_pattern(sides), out=out.reshape(len(band_first), -1))
+
+
+def write_fan(ring, sides, apex, at_end, out):
+    """:func:`fan_faces` written into ``out`` (a :class:`Surface` fill)."""
+    out[:] = fan_faces(ring, sides, apex=apex, at_end=at_end)
 
 
 def _write_seam(first, n_rings, sides, seam_shift, out):

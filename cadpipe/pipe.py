@@ -14,7 +14,7 @@ from ._validate import as_choice, as_int, as_positive
 from ._vec import cross
 from .errors import GeometryError, InputError
 from .frames import FRAME_MODES, as_direction
-from .loft import Surface, fan_faces
+from .loft import Surface, write_fan
 from .mesh import Mesh
 from .path import Path, polylines
 from .tubes import Tubes, ring_basis
@@ -323,10 +323,6 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
             apex = None if cap is None else surface.add_vertices(
                 1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
             surface.add_faces(n if cap is not None else n - 2, partial(
-                _write_fan, ring, n, apex, at_end), part)
+                write_fan, ring, n, apex, at_end), part)
     ring0 = first + rings_before * sides
     return ring0, ring0 + (groups.counts - 1) * sides
-
-
-def _write_fan(ring, sides, apex, at_end, out):
-    out[:] = fan_faces(ring, sides, apex=apex, at_end=at_end)

@@ -32,7 +32,7 @@ class Groups:
     Parameters
     ----------
     counts : (G,) array_like of int
-        Rows per item, each at least 2.
+        Rows per item (at least 1 where rows are shifted within items).
     closed : bool or (G,) array_like of bool
     """
 
@@ -78,11 +78,6 @@ class Groups:
     def local(self):
         """(N,) position of each row within its item."""
         return np.arange(self.size) - self.spread(self.first)
-
-    def wrap(self, rows):
-        """The row after each of ``rows`` (item-local last rows): the item's first row if
-        it is closed, else the row itself (an open item has nothing after its end)."""
-        return np.where(self.closed, self.first, rows)
 
     def _bounds(self, start, stop):
         """``stop`` (None: the end) and the first rows, last rows and closed flags of the

@@ -93,10 +93,10 @@ class Tubes:
         out[:, 2] = lines.xyz.T
         return out
 
-    def rings(self, rows, sides, out=None):
-        """(len(rows), sides, 3) vertices of the rings at ``rows``, written into ``out``
-        if given: one batched matrix product."""
-        return np.matmul(ring_basis(sides), self.axes[rows], out=out)
+    def rings(self, rows, sides):
+        """(len(rows), sides, 3) vertices of the rings at ``rows``: one batched matrix
+        product."""
+        return np.matmul(ring_basis(sides), self.axes[rows])
 
     def self_intersections(self):
         """Per tube, a list of findings where it would cut through itself (see
