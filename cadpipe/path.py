@@ -266,7 +266,7 @@ def polylines(paths):
     """The paths' geometry as one :class:`Polylines` batch (a lone path's own, cached)."""
     if len(paths) == 1:
         return paths[0]._lines
-    return Polylines(np.ascontiguousarray(np.concatenate([p.points for p in paths]).T),
+    return Polylines(np.concatenate([p._xyz for p in paths], axis=1),
                      Groups([len(p) for p in paths], [p.closed for p in paths]))
 
 

@@ -64,8 +64,7 @@ def splice(*pipes, transition="lcm", closed=False):
     if len(pipes) == 1 and not closed:
         return pipes[0].mesh().with_parts(["pipe0"])
     before, after = _junctions(len(pipes), closed)
-    pipes = _make_room(list(pipes), before, after)
-    tubes = tubes_of(pipes)
+    pipes, tubes = _make_room(list(pipes), tubes_of(pipes), before, after)
     for i, problems in enumerate(tubes.self_intersections()):
         if problems:
             raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}")
@@ -95,16 +94,22 @@ def _junctions(count, closed):
     return before, (before + 1) % count
 
 
-def _make_room(pipes, before, after):
-    """Pipes whose ends touch give up a little length for the transition between them."""
-    gap = norm(np.array([pipes[b].path.points[0] for b in after])
-               - np.array([pipes[a].path.points[-1] for a in before]))
-    room = np.minimum([pipes[a].ring_radii[-1] for a in before],
-                      [pipes[b].ring_radii[0] for b in after])
+def _make_room(pipes, tubes, before, after):
+    """Pipes whose ends touch give up a little length for the transition between them.
+
+    Returns the pipes and their batch, rebuilt if any pipe was trimmed.
+    """
+    groups = tubes.groups
+    end, start = groups.last[before], groups.first[after]
+    gap = norm(tubes.lines.xyz[:, start] - tubes.lines.xyz[:, end], 0)
+    room = np.minimum(tubes.ring_radii[end], tubes.ring_radii[start])
     touching = gap < 0.5 * room
+    if not touching.any():
+        return pipes, tubes
     trim = np.zeros((len(pipes), 2))
     trim[before[touching], 1] = trim[after[touching], 0] = 0.5 * room[touching]
-    return [p.trimmed(*t) if t.any() else p for p, t in zip(pipes, trim)]
+    pipes = [p.trimmed(*t) if t.any() else p for p, t in zip(pipes, trim)]
+    return pipes, tubes_of(pipes)
 
 
 def _transition_tubes(tubes, before, after, sides):
