@@ -9,8 +9,12 @@ from .errors import (CadpipeError, ExportError, GeometryError, InputError, MeshE
 from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe
+from .assembly import Assembly
+from .hollow import HollowPipe, Junction
+from .spec import load
 
 __version__ = "0.1.0"
 
 __all__ = ["CadpipeError", "ExportError", "GeometryError", "InputError", "Mesh", "MeshError",
            "Path", "Pipe", "SpecError", "__version__"]
+__all__ += ["Assembly", "HollowPipe", "Junction", "load"]

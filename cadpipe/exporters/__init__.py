@@ -26,9 +26,12 @@ def suffix_of(path):
 def as_mesh(obj):
     """The :class:`~cadpipe.Mesh` behind ``obj``: a Mesh itself, or what its ``mesh()`` builds."""
     from ..mesh import Mesh
+    from ..scene import Scene
 
     if isinstance(obj, Mesh):
         return obj
+    if isinstance(obj, Scene):
+        return Mesh.concatenate(p.world_mesh() for p in obj.parts)
     if callable(getattr(obj, "mesh", None)):
         return obj.mesh()
     raise InputError(f"cannot export a {type(obj).__name__}; expected a Mesh, Pipe or Assembly")
