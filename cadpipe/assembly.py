@@ -81,7 +81,7 @@ class Assembly:
             raise InputError(f"name: expected a non-empty string, got {name!r}")
         self.units = units
         self.name = name
-        self._parts = []
+        self._parts = {}         # name -> Part, in the order given
         self._solids = None      # per part: (solids, bores) as manifold3d objects, world frame
         self._operands = None    # (adds, cuts, clips) gathered from _solids
         self._union = None
@@ -92,7 +92,7 @@ class Assembly:
     @property
     def parts(self):
         """The parts in the order they were given."""
-        return tuple(self._parts)
+        return tuple(self._parts.values())
 
     # -- building -------------------------------------------------------------
     def add(self, name, obj, transform=None, color=None):
@@ -114,7 +114,7 @@ class Assembly:
     def _put(self, name, obj, op, transform, color):
         if not isinstance(name, str) or not name:
             raise InputError(f"name: expected a non-empty string, got {name!r}")
-        if any(p.name == name for p in self._parts):
+        if name in self._parts:
             raise InputError(f"name: a part named {name!r} is already in the assembly; "
                              "part names must be unique")
         if not (isinstance(obj, Mesh) or callable(getattr(obj, "mesh", None))
@@ -127,7 +127,7 @@ class Assembly:
             if np.array_equal(matrix, np.eye(4)):
                 matrix = None
         rgb = None if color is None else parse_color(color)
-        self._parts.append(Part(name, obj, op, matrix, rgb))
+        self._parts[name] = Part(name, obj, op, matrix, rgb)
         self._solids = self._union = None
         return self
 
@@ -136,8 +136,8 @@ class Assembly:
         """Validate and place every part's solids and bores as manifold3d objects, once."""
         if self._solids is not None:
             return
-        self._solids, self._names = [], {}
-        for part in self._parts:
+        placed_parts, names = [], {}
+        for part in self._parts.values():
             shapes = part.shapes()
             ids = iter(reserve_ids(sum(map(len, shapes))))
             placed = []
@@ -145,16 +145,17 @@ class Assembly:
                 group = []
                 for i, mesh in enumerate(meshes):
                     original = next(ids)
-                    self._names[original] = part.name
+                    names[original] = part.name
                     label = part.name if len(meshes) == 1 and kind == "solid" else \
                         f"{part.name} ({kind} {i})"
                     solid = as_solid(mesh, label, original)
                     group.append(solid if part.transform is None else
                                  solid.transform(part.transform[:3]))
                 placed.append(group)
-            self._solids.append(tuple(placed))
+            placed_parts.append(tuple(placed))
             if progress is not None:
                 progress(part.name)
+        self._solids, self._names = placed_parts, names
         self._operands = self._collect()
 
     def _collect(self):
@@ -163,7 +164,7 @@ class Assembly:
         import manifold3d
 
         adds, cuts, clips = [], [], []
-        for part, (solids, bores) in zip(self._parts, self._solids):
+        for part, (solids, bores) in zip(self._parts.values(), self._solids):
             if part.op == "add":
                 adds += solids
                 cuts += bores
@@ -182,7 +183,7 @@ class Assembly:
         and :class:`GeometryError` when nothing is left.
         """
         if self._union is None:
-            if not any(p.op == "add" for p in self._parts):
+            if not any(p.op == "add" for p in self._parts.values()):
                 raise InputError(f"assembly {self.name!r}: add at least one part before "
                                  "combining it")
             self._prepare(progress)
@@ -213,8 +214,7 @@ class Assembly:
         solid = combine(list(solids), cuts, clips)
         if part.transform is not None:
             solid = solid.transform(np.linalg.inv(part.transform)[:3])
-        return Mesh.from_manifold(solid, part_names=self._names,
-                                  attributes=part.attributes)
+        return Mesh.from_manifold(solid, part_names=self._names, attributes=part.attributes)
 
     def to_scene(self, mode="parts"):
         """A :class:`~cadpipe.scene.Scene` for exporters.
@@ -226,14 +226,14 @@ class Assembly:
         names to colours for its labelled faces.
         """
         mode = as_choice(mode, "mode", EXPORT_MODES)
-        colors = MappingProxyType({p.name: p.color for p in self._parts if p.color is not None})
+        entries = self._parts.values()
+        colors = MappingProxyType({p.name: p.color for p in entries if p.color is not None})
+        solid = self.union()
         if mode == "solid":
-            solid = self.union()
             parts = (ScenePart(self.name, solid, attributes=solid.attributes),)
         else:
-            self.union()
             meshes = [(p, self._part_mesh(p, solids))
-                      for p, (solids, _) in zip(self._parts, self._solids) if p.op == "add"]
+                      for p, (solids, _) in zip(entries, self._solids) if p.op == "add"]
             parts = tuple(ScenePart(p.name, mesh, p.color, p.transform, p.attributes)
                           for p, mesh in meshes if len(mesh.faces))   # skip parts cut away
         return Scene(name=self.name, parts=parts, units=self.units, colors=colors)

@@ -88,7 +88,8 @@ class HollowPipe(Hollow):
         self.ends = _ends(ends)
 
     def __repr__(self):
-        return f"<cadpipe.HollowPipe wall {self.wall:g}, ends {'/'.join(self.ends)}, {self.pipe!r}>"
+        ends = "/".join(self.ends)
+        return f"<cadpipe.HollowPipe wall {self.wall:g}, ends {ends}, {self.pipe!r}>"
 
     @cached_property
     def bore(self):

@@ -168,8 +168,9 @@ def _path_table(ctx, *, points: list | str, closed: bool = False, spline: bool =
     return Path(pts, closed=closed)
 
 
-def _transform_table(ctx, *, translate: list | Number = (0, 0, 0), rotate: list | Number = (0, 0, 0),
-                     scale: list | Number = 1.0):
+def _transform_table(ctx, *, translate: list | Number = (0, 0, 0),
+                     rotate: list | Number = (0, 0, 0), scale: list | Number = 1.0):
+    """``transform = {translate = ..., rotate = ..., scale = ...}``: see :func:`placement`."""
     return placement(translate, rotate, scale)
 
 

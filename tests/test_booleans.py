@@ -13,7 +13,8 @@ from cadpipe.booleans import as_solid, combine, overlap_pairs, reserve_ids
 
 
 def solids(*meshes):
-    return [as_solid(m, f"m{i}", k) for i, (m, k) in enumerate(zip(meshes, reserve_ids(len(meshes))))]
+    ids = reserve_ids(len(meshes))
+    return [as_solid(m, f"m{i}", k) for i, (m, k) in enumerate(zip(meshes, ids))]
 
 
 def boxes_strategy(n):
@@ -40,7 +41,7 @@ def test_inside_out_mesh_is_rejected_by_name():
 
 def test_open_mesh_is_rejected_with_manifold3d_status():
     box = primitives.box(1.0)
-    with pytest.raises(cadpipe.MeshError, match=r"lid: not a closed solid \(manifold3d: NotManifold"):
+    with pytest.raises(cadpipe.MeshError, match=r"lid: not a closed solid \(manifold3d: NotMan"):
         as_solid(cadpipe.Mesh(box.vertices, box.faces[1:]), "lid", reserve_ids(1)[0])
 
 

@@ -139,10 +139,9 @@ def test_closed_loop_hollow_pipe_is_a_torus_shell_with_a_void():
     assert sorted(np.sign(shells(mesh))) == [-1, 1]
 
 
-@pytest.mark.parametrize("wall, ends, match", [(0.1, "open", "wall: 0.1 must be less than"),
-                                               (-0.01, "open", "wall: must be finite and > 0"),
-                                               (0.01, "half", "ends: expected one of"),
-                                               (0.01, ["open"], "ends: expected 'open', 'closed'")])
+@pytest.mark.parametrize("wall, ends, match", [
+    (0.1, "open", "wall: 0.1 must be less than"), (-0.01, "open", "wall: must be finite and > 0"),
+    (0.01, "half", "ends: expected one of"), (0.01, ["open"], "ends: expected 'open', 'closed'")])
 def test_bad_wall_or_ends_raise_input_errors(wall, ends, match):
     with pytest.raises(cadpipe.InputError, match=match):
         HollowPipe(Pipe([[0, 0, 0], [1, 0, 0]], 0.1), wall, ends)
