@@ -1,36 +1,71 @@
-"""Binary and ASCII STL, written from numpy in one go."""
+"""STL for 3D printing: binary by default, ASCII on request, written from numpy in one go.
+
+STL has no units, names or colours: every part of the scene goes into one
+triangle soup in world coordinates. Corners are cast to float32 first and the
+facet normals are computed from those float32 corners, so each record's normal
+matches the triangle the file actually holds.
+"""
 
 import numpy as np
 
-from . import as_mesh, atomic_path
+from ..scene import as_scene
+from . import atomic_path
+from .flatten import flatten
 
 _RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
 
 
-def write_stl(mesh, path, *, ascii=False):
-    """Write ``mesh`` as STL (binary unless ``ascii=True``), atomically."""
-    mesh = as_mesh(mesh)
+def write_stl(obj, path, *, ascii=False):
+    """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as STL, atomically.
+
+    Parameters
+    ----------
+    ascii : bool
+        Write the text form (about 5x larger and slower to read) instead of binary.
+    """
+    scene = as_scene(obj)
+    mesh, _ = flatten(scene)
+    records = stl_records(mesh.vertices, mesh.faces)
     with atomic_path(path) as tmp:
         if ascii:
-            _write_ascii(mesh, tmp)
+            _write_ascii(records, tmp, scene.name)
         else:
-            records = np.empty(len(mesh.faces), dtype=_RECORD)
-            records["normal"] = mesh.face_normals
-            records["corners"] = mesh.triangles
-            records["attr"] = 0
-            header = np.zeros(80, np.uint8)
-            header[:7] = np.frombuffer(b"cadpipe", np.uint8)
+            header = f"binary STL from cadpipe: {scene.name}".encode("ascii", "replace")[:80]
             with open(tmp, "wb") as fh:
-                fh.write(header.tobytes())
+                fh.write(header.ljust(80, b" "))
                 fh.write(np.uint32(len(records)).tobytes())
-                fh.write(records.tobytes())
+                fh.write(records.data)
 
 
-def _write_ascii(mesh, tmp):
-    rows = np.concatenate([mesh.face_normals[:, None, :], mesh.triangles], axis=1).reshape(-1, 12)
-    facet = ("facet normal {:.9e} {:.9e} {:.9e}\n outer loop\n"
-             "  vertex {:.9e} {:.9e} {:.9e}\n  vertex {:.9e} {:.9e} {:.9e}\n"
-             "  vertex {:.9e} {:.9e} {:.9e}\n endloop\nendfacet\n")
-    body = (facet * len(rows)).format(*rows.ravel())
-    with open(tmp, "w") as fh:
-        fh.write("solid cadpipe\n" + body + "endsolid cadpipe\n")
+def stl_records(vertices, faces):
+    """(F,) binary STL records: float32 unit normal, three float32 corners, zero attribute.
+
+    Works per coordinate on contiguous columns (three gathers of ``(F, 3)``
+    instead of one of ``(F, 3, 3)``), which keeps a million triangles well
+    under 0.1 s.
+    """
+    v32 = np.asarray(vertices, dtype=np.float32)
+    x, y, z = (np.take(v32[:, i], faces) for i in range(3))      # each (F, 3): corner coords
+    ux, uy, uz = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0], z[:, 1] - z[:, 0]
+    vx, vy, vz = x[:, 2] - x[:, 0], y[:, 2] - y[:, 0], z[:, 2] - z[:, 0]
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    length = np.sqrt(nx * nx + ny * ny + nz * nz)
+    length[length == 0] = 1.0                       # degenerate facet: zero normal
+    records = np.empty(len(faces), dtype=_RECORD)
+    normal, corners = records["normal"], records["corners"]
+    for axis, (n, coords) in enumerate(((nx, x), (ny, y), (nz, z))):
+        normal[:, axis] = n / length
+        corners[:, :, axis] = coords
+    records["attr"] = 0
+    return records
+
+
+def _write_ascii(records, tmp, name):
+    rows = np.concatenate([records["normal"][:, None, :], records["corners"]], axis=1)
+    facet = ("facet normal {:.9g} {:.9g} {:.9g}\n outer loop\n"
+             "  vertex {:.9g} {:.9g} {:.9g}\n  vertex {:.9g} {:.9g} {:.9g}\n"
+             "  vertex {:.9g} {:.9g} {:.9g}\n endloop\nendfacet\n")
+    body = (facet * len(rows)).format(*rows.ravel().tolist())
+    solid = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "cadpipe"
+    with open(tmp, "w", encoding="ascii") as fh:
+        fh.write(f"solid {solid}\n{body}endsolid {solid}\n")
