@@ -19,8 +19,9 @@ from hypothesis import strategies as st
 import cadpipe
 from cadpipe.errors import ExportError, InputError
 from cadpipe.exporters import export
-from cadpipe.exporters.normals import shading_normals
+from cadpipe.exporters.normals import shading_normals, split_for_normals
 from cadpipe.exporters.stl import write_stl
+from cadpipe.exporters.text import ascii_rows, float32_decimal
 from cadpipe.exporters.trimesh_formats import gltf_root
 from cadpipe.scene import Scene, ScenePart, as_scene
 
@@ -116,7 +117,9 @@ def test_usd_passes_validation_and_reopens_as_written(tmp_path, scene, usd_valid
         np.testing.assert_allclose(np.asarray(geom.GetExtentAttr().Get()),
                                    part.mesh.bounds, rtol=1e-6)
         assert geom.GetSubdivisionSchemeAttr().Get() == UsdGeom.Tokens.none
-        assert len(geom.GetNormalsAttr().Get()) in (len(points), 3 * len(part.mesh.faces))
+        normals = UsdGeom.PrimvarsAPI(geom).GetPrimvar("normals")
+        assert normals.GetInterpolation() == UsdGeom.Tokens.faceVarying   # hard cap rims
+        assert len(normals.ComputeFlattened()) == 3 * len(part.mesh.faces)
 
     plain = stage.GetPrimAtPath("/work_cell/plain_pipe")
     world = UsdGeom.Xformable(plain).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
@@ -174,31 +177,49 @@ def test_lone_pipe_exports_with_its_parameters(tmp_path):
 
 
 # -- shading normals --------------------------------------------------------------
+def corner_normals(mesh, crease_angle=35.0):
+    shading = shading_normals(mesh, crease_angle)
+    return shading.normals[shading.corner_index], shading.per_vertex
+
+
 def test_round_tube_shades_smooth_and_keeps_hard_caps():
     mesh = cadpipe.Pipe([[0, 0, 0], [0, 0, 2]], 0.5, sides=16).mesh()
-    normals, interpolation = shading_normals(mesh)
-    assert interpolation == "faceVarying"
+    normals, per_vertex = corner_normals(mesh)
+    assert not per_vertex
     corners = mesh.vertices[mesh.faces.ravel()]
     on_cap = np.isclose(np.abs(mesh.face_normals[:, 2]), 1.0).repeat(3)
     radial = corners[:, :2] / np.linalg.norm(corners[:, :2], axis=1, keepdims=True)
     # side corners point straight out of the axis; cap corners along it
-    np.testing.assert_allclose(normals[~on_cap, :2], radial[~on_cap], atol=1e-9)
-    np.testing.assert_allclose(np.abs(normals[on_cap, 2]), 1.0, atol=1e-12)
+    np.testing.assert_allclose(normals[~on_cap, :2], radial[~on_cap], atol=1e-6)
+    np.testing.assert_allclose(np.abs(normals[on_cap, 2]), 1.0, atol=1e-6)
+    # indexed: one normal per vertex, plus a side normal per rim vertex and one per cap
+    long_pipe = cadpipe.Pipe(np.c_[np.zeros((10, 2)), np.arange(10)], 0.5, sides=16).mesh()
+    assert len(shading_normals(long_pipe).normals) == len(long_pipe.vertices) + 2 * 16 + 2
 
 
 def test_low_poly_duct_keeps_its_facets():
     mesh = cadpipe.Pipe([[0, 0, 0], [0, 0, 2]], 0.5, sides=6).mesh()
-    normals, interpolation = shading_normals(mesh)
-    assert interpolation == "faceVarying"
-    np.testing.assert_allclose(normals, mesh.face_normals.repeat(3, axis=0), atol=1e-12)
+    normals, per_vertex = corner_normals(mesh)
+    assert not per_vertex
+    np.testing.assert_allclose(normals, mesh.face_normals.repeat(3, axis=0), atol=1e-6)
 
 
 def test_closed_ring_has_plain_vertex_normals():
     angles = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     ring = cadpipe.Path(np.c_[np.cos(angles), np.sin(angles), np.zeros(40)], closed=True)
     mesh = cadpipe.Pipe(ring, 0.2, sides=16).mesh()
-    normals, interpolation = shading_normals(mesh)
-    assert interpolation == "vertex" and normals.shape == mesh.vertices.shape
+    shading = shading_normals(mesh)
+    assert shading.per_vertex and shading.normals.shape == mesh.vertices.shape
+
+
+def test_glb_splits_only_crease_vertices():
+    mesh = cadpipe.Pipe([[0, 0, 0], [0, 0, 2]], 0.5, sides=16).mesh()
+    vertices, faces, normals = split_for_normals(mesh)
+    # every vertex lies on a rim (flat caps are fans of the end rings): a side copy and
+    # a cap copy each
+    assert len(vertices) == 2 * len(mesh.vertices)
+    np.testing.assert_array_equal(vertices[faces], mesh.triangles)
+    np.testing.assert_allclose(normals[faces.ravel()], corner_normals(mesh)[0])
 
 
 def test_crease_angle_outside_0_180_is_rejected():
@@ -210,10 +231,9 @@ def test_crease_angle_outside_0_180_is_rejected():
 @given(sides=st.integers(3, 40), angle=st.floats(0, 180))
 def test_shading_normals_are_unit_and_face_outward(sides, angle):
     mesh = cadpipe.Pipe([[0, 0, 0], [1, 0.2, 0], [2, 0, 0.3]], 0.1, sides=sides).mesh()
-    normals, interpolation = shading_normals(mesh, angle)
-    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-9)
-    per_corner = normals if interpolation == "faceVarying" else normals[mesh.faces.ravel()]
-    facing = np.einsum("ij,ij->i", per_corner, mesh.face_normals.repeat(3, axis=0))
+    normals, _ = corner_normals(mesh, angle)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-6)
+    facing = np.einsum("ij,ij->i", normals, mesh.face_normals.repeat(3, axis=0))
     assert (facing > 0).all()
 
 
@@ -298,6 +318,26 @@ def test_empty_part_is_a_clear_error(tmp_path):
     empty = cadpipe.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int))
     with pytest.raises(InputError, match="no triangles"):
         export(empty, tmp_path / "empty.stl")
+
+
+# -- numbers to text (3MF) ----------------------------------------------------------
+@settings(max_examples=50, deadline=None)
+@given(table=st.lists(st.tuples(st.integers(-2**40, 2**40), st.integers(0, 9)), min_size=1,
+                      max_size=20))
+def test_ascii_rows_match_python_formatting(table):
+    text = ascii_rows((b"<t a=\"", 0, b"\" b=\"", 1, b"\"/>\n"), np.array(table))
+    assert text.decode() == "".join(f'<t a="{a}" b="{b}"/>\n' for a, b in table)
+
+
+@settings(max_examples=50, deadline=None)
+@given(values=st.lists(st.floats(width=32, allow_nan=False, allow_infinity=False), min_size=1,
+                       max_size=50))
+def test_float32_decimal_reads_back_to_the_same_float32(values):
+    values = np.array(values, dtype=np.float32)
+    mantissa, exponent = float32_decimal(values)
+    back = np.array([float(f"{m}e{e}") for m, e in zip(mantissa.tolist(), exponent.tolist())])
+    np.testing.assert_array_equal(back.astype(np.float32), values)
+    assert (np.abs(mantissa) < 10**9).all()
 
 
 # -- whole or nothing ------------------------------------------------------------

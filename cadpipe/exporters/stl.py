@@ -24,7 +24,7 @@ def write_stl(obj, path, *, ascii=False):
         Write the text form (about 5x larger and slower to read) instead of binary.
     """
     scene = as_scene(obj)
-    mesh, _ = flatten(scene)
+    mesh = flatten(scene).mesh
     records = stl_records(mesh.vertices, mesh.faces)
     with atomic_path(path) as tmp:
         if ascii:
@@ -40,22 +40,21 @@ def write_stl(obj, path, *, ascii=False):
 def stl_records(vertices, faces):
     """(F,) binary STL records: float32 unit normal, three float32 corners, zero attribute.
 
-    Works per coordinate on contiguous columns (three gathers of ``(F, 3)``
-    instead of one of ``(F, 3, 3)``), which keeps a million triangles well
-    under 0.1 s.
+    The corners are gathered straight into the records and the normals computed
+    from them there, so a million triangles take a few tens of milliseconds.
     """
     v32 = np.asarray(vertices, dtype=np.float32)
-    x, y, z = (np.take(v32[:, i], faces) for i in range(3))      # each (F, 3): corner coords
-    ux, uy, uz = x[:, 1] - x[:, 0], y[:, 1] - y[:, 0], z[:, 1] - z[:, 0]
-    vx, vy, vz = x[:, 2] - x[:, 0], y[:, 2] - y[:, 0], z[:, 2] - z[:, 0]
-    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-    length = np.sqrt(nx * nx + ny * ny + nz * nz)
-    length[length == 0] = 1.0                       # degenerate facet: zero normal
     records = np.empty(len(faces), dtype=_RECORD)
-    normal, corners = records["normal"], records["corners"]
-    for axis, (n, coords) in enumerate(((nx, x), (ny, y), (nz, z))):
-        normal[:, axis] = n / length
-        corners[:, :, axis] = coords
+    corners = records["corners"]                        # (F, 3, 3) view, 50-byte rows
+    np.take(v32, faces, axis=0, out=corners, mode="wrap")   # faces are in range: no wrap
+    u, v = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    cross = (u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+             u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    length = np.sqrt(cross[0] ** 2 + cross[1] ** 2 + cross[2] ** 2)
+    length[length == 0] = 1.0                           # degenerate facet: zero normal
+    normal = records["normal"]
+    for axis in range(3):
+        np.divide(cross[axis], length, out=normal[:, axis])
     records["attr"] = 0
     return records
 

@@ -34,7 +34,7 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE):
     for part in scene.parts:
         node = unique_name(part.name, names)
         matrix = np.eye(4) if part.transform is None else np.asarray(part.transform, float)
-        pieces = _colored_pieces(*labelled(scene, part), crease_angle)
+        pieces = _colored_pieces(labelled(scene, part), crease_angle)
         if len(pieces) == 1:     # one colour: the part's node holds the geometry itself
             out.add_geometry(pieces[0][1], node_name=node, geom_name=node,
                              parent_node_name=root, transform=matrix)
@@ -48,14 +48,14 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE):
         tmp.write_bytes(data)
 
 
-def _colored_pieces(mesh, colors, crease_angle):
+def _colored_pieces(painted, crease_angle):
     """[(label, trimesh.Trimesh)]: one piece per used label, with a PBR material of its colour."""
     import trimesh
 
-    vertices, faces, normals = split_for_normals(mesh, crease_angle)
+    vertices, faces, normals = split_for_normals(painted.mesh, crease_angle)
     pieces = []
-    for label, (name, rgb) in enumerate(zip(mesh.part_names, colors)):
-        picked = faces[mesh.face_part == label]
+    for label, (name, rgb) in enumerate(zip(painted.names, painted.colors)):
+        picked = faces[painted.labels == label]
         if len(picked) == 0:
             continue
         used, local = np.unique(picked, return_inverse=True)
@@ -80,8 +80,7 @@ def write_obj(obj, path):
     from trimesh.exchange.obj import export_obj
 
     scene = as_scene(obj)
-    mesh, _ = flatten(scene)
-    text = export_obj(mesh.to_trimesh(), include_normals=False, include_color=False,
+    text = export_obj(flatten(scene).mesh.to_trimesh(), include_normals=False, include_color=False,
                       include_texture=False, digits=9, header=f"cadpipe: {scene.name}")
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
@@ -91,10 +90,10 @@ def write_ply(obj, path, *, ascii=False):
     """Write ``obj`` as PLY with per-face colours (binary unless ``ascii``), atomically."""
     from trimesh.exchange.ply import export_ply
 
-    mesh, colors = flatten(as_scene(obj))
-    tm = mesh.to_trimesh()
-    tm.visual.face_colors = np.column_stack([np.round(colors[mesh.face_part] * 255),
-                                             np.full(len(mesh.faces), 255)]).astype(np.uint8)
+    painted = flatten(as_scene(obj))
+    tm = painted.mesh.to_trimesh()
+    rgb = np.round(painted.colors[painted.labels] * 255)
+    tm.visual.face_colors = np.column_stack([rgb, np.full(len(rgb), 255)]).astype(np.uint8)
     data = export_ply(tm, encoding="ascii" if ascii else "binary", vertex_normal=False,
                       include_attributes=False)
     with atomic_path(path) as tmp:

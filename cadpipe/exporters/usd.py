@@ -15,7 +15,10 @@ Layout of the stage (``defaultPrim`` is the root, so the file can be referenced)
 Stage metadata: ``upAxis`` and ``metersPerUnit`` from the scene. Points, normals
 and colours are float32 (USD's ``point3f``); arrays go in through
 ``Vt.*.FromNumpy``, never as Python lists. Normals follow a crease angle
-(:mod:`cadpipe.exporters.normals`): smooth round tubes, hard caps and edges.
+(:mod:`cadpipe.exporters.normals`): smooth round tubes, hard caps and edges. A
+mesh without creases gets per-vertex ``normals``; one with creases an indexed
+``primvars:normals`` (faceVarying), which stores one normal per vertex plus one
+per crease group instead of one per face corner.
 """
 
 import numbers
@@ -83,10 +86,9 @@ def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE):
         if part.transform is not None:
             xform.AddTransformOp().Set(_matrix(part.transform))
         _set_custom_attributes(xform.GetPrim(), part.attributes)
-        mesh, colors = labelled(scene, part)
-        geom = _define_mesh(stage, xform.GetPath().AppendChild("Mesh"), mesh, colors,
-                            crease_angle)
-        _bind_materials(geom, mesh, colors, materials)
+        painted = labelled(scene, part)
+        geom = _define_mesh(stage, xform.GetPath().AppendChild("Mesh"), painted, crease_angle)
+        _bind_materials(geom, painted, materials)
     return stage
 
 
@@ -104,9 +106,10 @@ def _matrix(transform):
     return Gf.Matrix4d(np.asarray(transform, dtype=np.float64).T.tolist())
 
 
-def _define_mesh(stage, prim_path, mesh, colors, crease_angle):
-    from pxr import UsdGeom, Vt
+def _define_mesh(stage, prim_path, painted, crease_angle):
+    from pxr import Sdf, UsdGeom, Vt
 
+    mesh, colors = painted.mesh, painted.colors
     points = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
     counts = Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32))
     indices = Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel())
@@ -121,29 +124,36 @@ def _define_mesh(stage, prim_path, mesh, colors, crease_angle):
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
-    normals, interpolation = shading_normals(mesh, crease_angle)
-    geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(normals.astype(np.float32)))
-    geom.SetNormalsInterpolation(interpolation)
+    shading = shading_normals(mesh, crease_angle)
+    normals = Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32))
+    if shading.per_vertex:
+        geom.CreateNormalsAttr(normals)
+        geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    else:   # creases: an indexed primvar (one normal per vertex plus a few, not per corner)
+        primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
+            "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
+        primvar.Set(normals)
+        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32)))
     if len(colors) == 1:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
         display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)))
     else:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform)
-        display.Set(Vt.Vec3fArray.FromNumpy(colors[mesh.face_part].astype(np.float32)))
+        display.Set(Vt.Vec3fArray.FromNumpy(colors[painted.labels].astype(np.float32)))
     return geom
 
 
-def _bind_materials(geom, mesh, colors, materials):
+def _bind_materials(geom, painted, materials):
     """Bind the part's material, or one per source part through GeomSubsets."""
     from pxr import UsdGeom, UsdShade, Vt
 
     binding = UsdShade.MaterialBindingAPI.Apply(geom.GetPrim())
-    if len(colors) == 1:
-        binding.Bind(materials.get(mesh.part_names[0], colors[0]))
+    if len(painted.names) == 1:
+        binding.Bind(materials.get(painted.names[0], painted.colors[0]))
         return
     subset_names = set()
-    for label, (name, rgb) in enumerate(zip(mesh.part_names, colors)):
-        faces = np.flatnonzero(mesh.face_part == label).astype(np.int32)
+    for label, (name, rgb) in enumerate(zip(painted.names, painted.colors)):
+        faces = np.flatnonzero(painted.labels == label).astype(np.int32)
         if len(faces) == 0:
             continue
         subset = binding.CreateMaterialBindSubset(_valid_name(name, subset_names),
