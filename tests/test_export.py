@@ -350,26 +350,28 @@ def test_target_in_a_missing_folder_leaves_nothing(tmp_path, suffix):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["not-a-folder"]
 
 
+def assert_failed_export_keeps_old_file(target, error, match):
+    """Exporting over an existing ``target`` fails with ``error``; the old file stays as it was."""
+    target.write_bytes(b"previous version")
+    with pytest.raises(error, match=match):
+        export(bent_pipe().mesh(), target)
+    assert target.read_bytes() == b"previous version"
+    assert [p.name for p in target.parent.iterdir()] == [target.name]   # no temp file left
+
+
 @pytest.mark.parametrize("suffix", BUILT_IN)
 def test_failed_rename_keeps_the_old_file_and_leaves_no_temp(tmp_path, monkeypatch, suffix):
-    target = tmp_path / f"pipe.{suffix}"
-    target.write_bytes(b"previous version")
-
     def refuse(src, dst):
         raise PermissionError(13, "Permission denied")
 
     monkeypatch.setattr(os, "replace", refuse)
-    with pytest.raises(ExportError, match="nothing was written"):
-        export(bent_pipe().mesh(), target)
-    assert target.read_bytes() == b"previous version"
-    assert [p.name for p in tmp_path.iterdir()] == [target.name]
+    assert_failed_export_keeps_old_file(tmp_path / f"pipe.{suffix}", ExportError,
+                                        "nothing was written")
 
 
-def test_writer_failing_midway_keeps_the_old_file(tmp_path, monkeypatch):
+def test_3mf_writer_failing_midway_keeps_the_old_file(tmp_path, monkeypatch):
     from cadpipe.exporters import threemf
 
-    target = tmp_path / "pipe.3mf"
-    target.write_bytes(b"previous version")
     real_rows = threemf._rows
 
     def fail_after_first_chunk(template, table):
@@ -377,10 +379,14 @@ def test_writer_failing_midway_keeps_the_old_file(tmp_path, monkeypatch):
         raise RuntimeError("disk full (simulated)")
 
     monkeypatch.setattr(threemf, "_rows", fail_after_first_chunk)
-    with pytest.raises(RuntimeError, match="simulated"):
-        export(bent_pipe().mesh(), target)
-    assert target.read_bytes() == b"previous version"
-    assert [p.name for p in tmp_path.iterdir()] == [target.name]
+    assert_failed_export_keeps_old_file(tmp_path / "pipe.3mf", RuntimeError, "simulated")
+
+
+def test_usdz_packaging_failure_keeps_the_old_file(tmp_path, monkeypatch):
+    from pxr import UsdUtils
+
+    monkeypatch.setattr(UsdUtils, "CreateNewARKitUsdzPackage", lambda *args: False)
+    assert_failed_export_keeps_old_file(tmp_path / "pipe.usdz", ExportError, "package")
 
 
 def test_export_accepts_anything_with_to_scene(tmp_path, scene):
