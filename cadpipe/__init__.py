@@ -4,8 +4,7 @@ The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
 :class:`Pipe` (S2-S4) -> :class:`Mesh`, then export.
 """
 
-from .errors import (CadpipeError, ExportError, GeometryError, InputError, MeshError,
-                     SpecError)
+from .errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
 from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe

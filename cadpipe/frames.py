@@ -12,42 +12,40 @@ comparison; it twists and is undefined where a tangent points at the origin.
 
 import numpy as np
 
+from ._vec import dot, norm, unit
 from .errors import InputError
 
 FRAME_MODES = ("rmf", "patent")
-
-
-def _unit(v):
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 def _reference(tangents):
     """A perpendicular to each tangent, from the coordinate axis least aligned with it."""
     axis = np.zeros_like(tangents)
     axis[np.arange(len(tangents)), np.argmin(np.abs(tangents), axis=1)] = 1.0
-    u = _unit(np.cross(tangents, axis))
+    u = unit(np.cross(tangents, axis))
     return u, np.cross(tangents, u)
 
 
 def _reflect(v, normal, normal_sq):
     """Reflect each row of ``v`` in the plane through the origin with normal ``normal``."""
-    factor = np.divide(2.0 * np.einsum("ij,ij->i", normal, v), normal_sq,
+    factor = np.divide(2.0 * dot(normal, v), normal_sq,
                        out=np.zeros(len(v)), where=normal_sq > 1e-300)
     return v - factor[:, None] * normal
 
 
 def _step_angles(points, tangents, u, w, closed):
     """Angle each double-reflection step turns the reference ``u`` by, against the next ``u``."""
-    nxt = np.roll(np.arange(len(points)), -1) if closed else np.arange(1, len(points))
-    cur = np.arange(len(nxt))
-    v1 = points[nxt] - points[cur]
-    c1 = np.einsum("ij,ij->i", v1, v1)
-    t_left = _reflect(tangents[cur], v1, c1)
-    v2 = tangents[nxt] - t_left
-    c2 = np.einsum("ij,ij->i", v2, v2)
-    moved = _reflect(_reflect(u[cur], v1, c1), v2, c2)
-    return np.arctan2(np.einsum("ij,ij->i", moved, w[nxt]), np.einsum("ij,ij->i", moved, u[nxt]))
+    def following(a):
+        return np.roll(a, -1, axis=0) if closed else a[1:]
+
+    def current(a):
+        return a if closed else a[:-1]
+
+    v1 = following(points) - current(points)
+    c1 = dot(v1, v1)
+    v2 = following(tangents) - _reflect(current(tangents), v1, c1)
+    moved = _reflect(_reflect(current(u), v1, c1), v2, dot(v2, v2))
+    return np.arctan2(dot(moved, following(w)), dot(moved, following(u)))
 
 
 def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, symmetry=None):
@@ -92,7 +90,7 @@ def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, s
         mismatch = float(delta.sum())
         seam_shift = int(np.round(mismatch / symmetry))
         excess = mismatch - seam_shift * symmetry
-        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        arc = np.concatenate([[0.0], np.cumsum(norm(np.diff(points, axis=0)))])
         total = arc[-1] + np.linalg.norm(points[0] - points[-1])
         phi = phi - excess * arc / total
     normals = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w
@@ -106,10 +104,10 @@ def patent_frames(points, tangents):
     is the origin) the rotation-minimizing normal is used instead.
     """
     normals = np.cross(points, tangents)
-    size = np.linalg.norm(normals, axis=1)
-    scale = np.maximum(np.linalg.norm(points, axis=1), 1.0)
+    size = norm(normals)
+    scale = np.maximum(norm(points), 1.0)
     bad = size <= 1e-9 * scale
-    normals = _unit(normals)
+    normals = unit(normals)
     if bad.any():
         fallback, _ = rotation_minimizing_frames(points, tangents)
         normals[bad] = fallback[bad]

@@ -65,6 +65,20 @@ class Mesh:
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
+    @classmethod
+    def trusted(cls, vertices, faces, *, attributes=None):
+        """Wrap arrays a cadpipe stage just built, skipping the input checks.
+
+        ``vertices`` must be finite float64 ``(V, 3)`` and ``faces`` int64 ``(F, 3)``
+        indices into them; large pipes are built faster than they can be re-checked.
+        """
+        mesh = cls.__new__(cls)
+        mesh._vertices = _frozen(vertices, np.float64)
+        mesh._faces = _frozen(faces, np.int64)
+        mesh._face_part, mesh._part_names = None, ()
+        mesh._attributes = MappingProxyType(dict(attributes or {}))
+        return mesh
+
     # -- data -----------------------------------------------------------------
     @property
     def vertices(self):
@@ -208,6 +222,32 @@ class Mesh:
         """Genus of a closed single-body mesh (0 for a sphere-like tube, 1 for a loop)."""
         return (2 * self.n_bodies - self.euler_characteristic) // 2
 
+    def winding_numbers(self, points, chunk=2_000_000):
+        """Generalized winding number of the surface around each point (1 inside, 0 outside).
+
+        Sums the solid angles of all triangles (Van Oosterom and Strackee), vectorized
+        over points and triangles in chunks of about ``chunk`` pairs.
+        """
+        pts = as_points(points, "points", min_count=0)
+        tri = self.triangles
+        out = np.empty(len(pts))
+        step = max(1, chunk // max(len(tri), 1))
+        for start in range(0, len(pts), step):
+            r = tri[None, :, :, :] - pts[start:start + step, None, None, :]
+            n = np.linalg.norm(r, axis=3)
+            a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
+            det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+            dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
+                    + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
+                    + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
+                    + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
+            out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
+        return out
+
+    def contains(self, points):
+        """(P,) bool: which points lie inside this closed mesh (winding number > 1/2)."""
+        return self.winding_numbers(points) > 0.5
+
     def require_solid(self, name="mesh"):
         """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
         if not self.is_watertight:
@@ -278,6 +318,13 @@ class Mesh:
         m = solid.to_mesh64()
         vertices = np.asarray(m.vert_properties)[:, :3]
         faces = np.asarray(m.tri_verts, dtype=np.int64)
+        merge_from = np.asarray(m.merge_from_vert, dtype=np.int64)
+        if len(merge_from):
+            # manifold3d splits vertices between triangle runs; its merge vectors weld them
+            target = np.arange(len(vertices))
+            target[merge_from] = np.asarray(m.merge_to_vert, dtype=np.int64)
+            used, faces = np.unique(target[faces], return_inverse=True)
+            vertices, faces = vertices[used], faces.reshape(-1, 3)
         if not part_names:
             return cls(vertices, faces, **kwargs)
         names = list(dict.fromkeys(part_names.values()))

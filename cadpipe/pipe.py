@@ -12,9 +12,10 @@ import numpy as np
 
 from . import clearance
 from ._validate import as_choice, as_int, as_positive
+from ._vec import dot
 from .errors import GeometryError, InputError
 from .frames import FRAME_MODES, frames
-from .loft import band_faces, fan_faces
+from .loft import band_face_count, band_faces, fan_faces
 from .mesh import Mesh
 from .path import Path
 
@@ -159,17 +160,17 @@ class Pipe:
         n, b = self.normals, self.binormals
         m = self.path.bend_directions
         extra = (self.miter_stretch - 1.0)[:, None]
-        n = n + extra * np.einsum("ij,ij->i", n, m)[:, None] * m
-        b = b + extra * np.einsum("ij,ij->i", b, m)[:, None] * m
+        n = n + extra * dot(n, m)[:, None] * m
+        b = b + extra * dot(b, m)[:, None] * m
         r = self.ring_radii[:, None]
         return np.stack([n * r, b * r], axis=1)
 
     def rings(self):
         """(N, sides, 3) ring vertices, counter-clockwise about the tangent."""
         a = 2 * np.pi * np.arange(self.sides) / self.sides
-        axes = self.ring_axes()
-        return (self.path.points[:, None, :] + np.cos(a)[None, :, None] * axes[:, None, 0]
-                + np.sin(a)[None, :, None] * axes[:, None, 1])
+        # [cos a, sin a, 1] @ [axis_cos; axis_sin; centre]: one batched product per ring
+        basis = np.stack([np.cos(a), np.sin(a), np.ones_like(a)], axis=1)
+        return basis @ np.concatenate([self.ring_axes(), self.path.points[:, None, :]], axis=1)
 
     def attributes(self):
         """The parameters that made this pipe, for exporters' metadata."""
@@ -203,7 +204,7 @@ class Pipe:
                                     + "; smooth the path, reduce the radius, or pass repair=True")
             return self._repaired_mesh()
         vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-        return Mesh(vertices, faces, attributes=self.attributes())
+        return Mesh.trusted(vertices, faces, attributes=self.attributes())
 
     def surface(self, *, cap_start=True, cap_end=True):
         """Vertices and faces of the side surface plus the requested end caps.
@@ -221,21 +222,26 @@ class Pipe:
         no_cap = (np.empty((0, n, 3)), None)
         start_rings, start_pole = self._cap_rings(0, -1) if cap_start else no_cap
         end_rings, end_pole = self._cap_rings(-1, +1) if cap_end else no_cap
-        all_rings = np.concatenate([start_rings[::-1], rings, end_rings])
-        vertices = [all_rings.reshape(-1, 3)]
-        faces = [band_faces(len(all_rings), n)]
-        count = len(all_rings) * n
-        ends = ((cap_start, start_pole, 0, False), (cap_end, end_pole, count - n, True))
-        for wanted, pole, ring, at_end in ends:
-            if not wanted:
-                continue
-            if pole is None:
-                faces.append(fan_faces(ring, n, at_end=at_end))
-            else:
-                vertices.append(pole[None])
-                faces.append(fan_faces(ring, n, apex=count, at_end=at_end))
-                count += 1
-        return np.concatenate(vertices), np.concatenate(faces)
+        if len(start_rings) or len(end_rings):
+            rings = np.concatenate([start_rings[::-1], rings, end_rings])
+        poles = [p for p in (start_pole, end_pole) if p is not None]
+        count = len(rings) * n
+        vertices = rings.reshape(-1, 3)
+        if poles:
+            vertices = np.concatenate([vertices, poles])
+        ends = [(pole, ring, at_end) for wanted, pole, ring, at_end in
+                ((cap_start, start_pole, 0, False), (cap_end, end_pole, count - n, True)) if wanted]
+        n_band = band_face_count(len(rings), n)
+        cap_counts = [n if pole is not None else n - 2 for pole, _, _ in ends]
+        faces = np.empty((n_band + sum(cap_counts), 3), np.int64)
+        band_faces(len(rings), n, out=faces[:n_band])
+        row, apex = n_band, count
+        for (pole, ring, at_end), size in zip(ends, cap_counts):
+            faces[row:row + size] = fan_faces(ring, n, apex=None if pole is None else apex,
+                                              at_end=at_end)
+            apex += pole is not None
+            row += size
+        return vertices, faces
 
     def _cap_rings(self, index, sign):
         """A flat cap: ``(empty, None)``. A round cap: its latitude rings past the end
@@ -255,16 +261,20 @@ class Pipe:
                  + (radius * np.sin(lat))[:, None, None] * tangent)
         return rings, centre + radius * tangent
 
-    def units(self):
+    def units(self, overlap=0.0):
         """Convex pieces whose union is the tube: each path unit, plus round caps.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
-        unit); a round cap is its rings and pole. Used for repair and collision.
+        unit); a round cap is its end ring, cap rings and pole. ``overlap`` pushes
+        each unit's rings that far outward along its segment, so that neighbouring
+        units overlap instead of merely touching (booleans treat touching solids as
+        apart).
         """
         rings = self.rings()
-        nxt = np.roll(np.arange(len(rings)), -1) if self.closed else np.arange(1, len(rings))
-        pieces = [np.concatenate([rings[i], rings[j]]) for i, j in
-                  zip(range(len(nxt)), nxt)]
+        cur = np.arange(len(self.path.segments))
+        nxt = (cur + 1) % len(rings)
+        shift = overlap * self.path.directions[:, None, :]
+        pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
         if not self.closed and self.caps == "round":
             for index, sign in ((0, -1), (-1, 1)):
                 cap_rings, pole = self._cap_rings(index, sign)
@@ -275,6 +285,7 @@ class Pipe:
         """Union of the convex units through manifold3d: valid even where the tube folds."""
         import manifold3d
 
-        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units()]
+        overlap = 1e-6 * float(self.ring_radii.max())
+        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units(overlap)]
         solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
         return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})

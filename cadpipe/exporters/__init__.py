@@ -48,6 +48,16 @@ def export(obj, path, **options):
     return FilePath(path)
 
 
+def ensure_folder(folder):
+    """Create ``folder`` (and parents) or raise :class:`ExportError` saying why not."""
+    folder = FilePath(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror})") from None
+    return folder
+
+
 @contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
