@@ -180,6 +180,7 @@ OFFLINE = ["--host-resolver-rules=MAP * ~NOTFOUND", "--proxy-server=http://127.0
 
 
 def chromium_screenshot(page, shot, profile):
+    """Open ``page`` offline in headless Chromium; save a screenshot, return its console."""
     browser = shutil.which("chromium")
     assert browser, "Debian's chromium is needed for this test: run `make chromium` as root"
     command = [browser, "--headless", "--no-sandbox", "--disable-gpu",
@@ -189,7 +190,9 @@ def chromium_screenshot(page, shot, profile):
                f"--screenshot={shot}", page.as_uri()]
     run = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
-    return [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
+    # console messages of the page and its viewer frame (not of Chromium's own pages)
+    return [line for line in run.stderr.splitlines() if ":CONSOLE" in line
+            and re.search(rf"source: ({re.escape(page.as_uri())}|about:srcdoc)", line)]
 
 
 @pytest.fixture(scope="module")
