@@ -41,7 +41,8 @@ HIGHLIGHT = parse_color("#ff1744")
 
 AMBIENT, DIFFUSE = 0.45, 0.55
 LIGHT = np.array([-0.35, 0.55, 0.76]) / np.linalg.norm([-0.35, 0.55, 0.76])  # camera frame
-SUPERSAMPLE = 2          # rendered at 2x and downsampled: smooth edges
+SUPERSAMPLE = 2          # rendered at 2x and downsampled: smooth edges ...
+CANVAS = 1 << 24         # ... unless that canvas would pass 16M pixels (memory, time)
 MARGIN = 0.07            # free border around the scene, as a fraction of the image
 
 
@@ -51,7 +52,8 @@ class _Labelled:
 
     A face's label is its mesh's own part label (``Mesh.part_names``, which
     survives booleans) or else its scene part's name. Highlighting a scene part
-    marks all its labels.
+    marks all its labels. ``solid`` marks the faces of closed, outward parts,
+    whose back faces the picture can skip.
     """
 
     def __init__(self, scene, highlight):
@@ -71,6 +73,8 @@ class _Labelled:
             raise InputError(f"highlight: no part named {', '.join(map(repr, unknown))}; "
                              f"the parts are {', '.join(map(repr, sorted(known)))}")
         self.mesh = Mesh.concatenate(meshes)
+        # faces of closed, outward parts: their back faces can never be seen
+        self.solid = np.repeat([m.is_outward for m in meshes], [len(m.faces) for m in meshes])
         if len(self.mesh.faces) == 0:
             raise InputError(f"scene {scene.name!r}: no triangles to preview")
         self.names = self.mesh.part_names
@@ -160,11 +164,12 @@ def render_png(scene, path, *, size=(960, 720), highlight=(), view="iso"):
 
     scene = as_scene(scene)
     path = _output_path(path, ".png", "preview image")
-    width, height = (as_int(n, f"size[{i}]", low=16, high=8192)
+    width, height = (as_int(n, f"size[{i}]", low=16, high=4096)
                      for i, n in enumerate(_pair(size, "size")))
     drawn = _Labelled(scene, _names(highlight))
     rotation = view_rotation(view, scene.up_axis)
-    pixels = _shade(drawn, rotation, width * SUPERSAMPLE, height * SUPERSAMPLE)
+    factor = SUPERSAMPLE if width * height * SUPERSAMPLE ** 2 <= CANVAS else 1
+    pixels = _shade(drawn, rotation, width * factor, height * factor)
     picture = Image.fromarray(pixels).resize((width, height), Image.Resampling.BOX)
     _annotate(picture, drawn, rotation, scene)
     with atomic_path(path) as tmp:
@@ -186,9 +191,11 @@ def _shade(drawn, rotation, width, height):
     screen = np.column_stack([width / 2 + (camera[:, 0] - middle[0]) * scale,
                               height / 2 - (camera[:, 1] - middle[1]) * scale,
                               (middle[2] - camera[:, 2]) * scale])      # depth in pixels
-    index, depth = rasterize(screen[mesh.faces], width, height)
-
     normals = mesh.face_normals @ rotation.T
+    drawn_faces = np.flatnonzero(~drawn.solid | (normals[:, 2] > 0))   # skip hidden backs
+    index, depth = rasterize(screen[mesh.faces[drawn_faces]], width, height)
+    index = np.where(index >= 0, drawn_faces[index], -1)
+
     normals *= np.where(normals[:, 2:] < 0, -1.0, 1.0)                  # lit from both sides
     light = AMBIENT + DIFFUSE * np.clip(normals @ LIGHT, 0.0, 1.0)
     label = mesh.face_part
@@ -205,10 +212,12 @@ def _shade(drawn, rotation, width, height):
 
     if drawn.marked.any():
         # trace highlighted parts whole: tinted where others hide them, ringed outside
-        silhouette = rasterize(screen[mesh.faces[drawn.marked[label]]], width, height)[0] >= 0
+        marked = drawn_faces[drawn.marked[label[drawn_faces]]]
+        silhouette = rasterize(screen[mesh.faces[marked]], width, height)[0] >= 0
         hidden = silhouette & ~(covered & drawn.marked[seen])
         rgb[hidden] = _bytes(0.55 / 255 * rgb[hidden] + 0.45 * np.array(HIGHLIGHT))
-        rgb[binary_dilation(silhouette, iterations=2 * SUPERSAMPLE) & ~silhouette] = \
+        ring = max(2, round(height / 360))
+        rgb[binary_dilation(silhouette, iterations=ring) & ~silhouette] = \
             _bytes(HIGHLIGHT)
     return rgb
 

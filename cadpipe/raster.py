@@ -12,7 +12,8 @@ triangle per pixel, flat shading is one lookup.
 
 import numpy as np
 
-#: candidate pixels handled per batch (bounds the temporary arrays to ~ 100 MB)
+#: candidate pixels handled per batch (bounds the temporary arrays to ~ 100 MB, and
+#: keeps offsets within a batch exact in float32)
 BATCH = 1 << 21
 
 
@@ -30,7 +31,7 @@ def rasterize(screen, width, height):
 
     Returns
     -------
-    index : (height, width) int64 array
+    index : (height, width) int32 array
         The visible triangle's index, or -1 where no triangle covers the pixel.
     depth : (height, width) float32 array
         Its depth at the pixel centre, ``inf`` where ``index`` is -1.
@@ -59,17 +60,29 @@ def rasterize(screen, width, height):
     w_c = np.array([0.0, 0.0, 1.0]) - w_a - w_b
     zk = z[keep]
     plane_z = w_a * zk[:, :1] + w_b * zk[:, 1:2] + w_c * zk[:, 2:]
-    planes = np.concatenate([w_a, w_b, plane_z], axis=1).T.astype(np.float32)  # (9, K)
+    planes = np.concatenate([w_a, w_b, plane_z], axis=1).T                    # (9, K)
+
+    # a box larger than a batch is cut into bands of rows, so every batch stays bounded
+    box_width, box_rows = span[keep, 0], span[keep, 1]
+    band_rows = np.maximum(BATCH // box_width, 1)
+    bands = -(-box_rows // band_rows)
+    box = np.repeat(np.arange(len(keep)), bands)                 # the box of each band
+    first_row = (np.arange(len(box)) - np.repeat(np.cumsum(bands) - bands, bands)) \
+        * band_rows[box]
+    rows = np.minimum(band_rows[box], box_rows[box] - first_row)
+    planes = planes[:, box]
+    planes[[2, 5, 8]] += planes[[1, 4, 7]] * first_row          # v counted from the band's top
+    planes = planes.astype(np.float32)
+    origin = (lo[keep, 1][box] + first_row) * width + lo[keep, 0][box]
+    count = rows * box_width[box]
 
     depth = np.full(width * height, np.inf, dtype=np.float32)
-    index = np.full(width * height, -1, dtype=np.int64)
-    origin = lo[keep, 1] * width + lo[keep, 0]
-    count, span_x = count[keep], span[keep, 0]
+    index = np.full(width * height, -1, dtype=np.int32)
     starts = np.concatenate([[0], np.cumsum(count)])
     for first, last in _batches(starts):
-        rows = slice(first, last)
-        _draw(keep[rows], planes[:, rows], origin[rows], span_x[rows], count[rows], width,
-              depth, index)
+        band = slice(first, last)
+        _draw(keep[box[band]], planes[:, band], origin[band], box_width[box[band]],
+              count[band], width, depth, index)
     return index.reshape(height, width), depth.reshape(height, width)
 
 
@@ -85,7 +98,7 @@ def _edge_plane(p, q, inv_area):
 
 
 def _batches(starts):
-    """``(first, last)`` triangle ranges whose candidate pixels add up to about BATCH."""
+    """``(first, last)`` band ranges whose candidate pixels add up to about BATCH."""
     bounds = np.searchsorted(starts, np.arange(0, starts[-1], BATCH), side="right") - 1
     bounds = np.unique(np.concatenate([bounds, [len(starts) - 1]]))
     return zip(bounds[:-1], bounds[1:])
@@ -105,8 +118,6 @@ def _draw(tri, planes, origin, span_x, count, width, depth, index):
     owner, u, v = owner[inside], u[inside], v[inside]
     z = planes[6, owner] * u + planes[7, owner] * v + planes[8, owner]
     pixel = origin[owner] + v.astype(np.int64) * width + u.astype(np.int64)
-    nearest = depth.copy()
-    np.minimum.at(nearest, pixel, z)
-    won = z <= nearest[pixel]           # the nearest fragment of its pixel (ties: any)
-    depth[:] = nearest
+    np.minimum.at(depth, pixel, z)
+    won = z <= depth[pixel]             # the nearest fragment of its pixel (ties: any)
     index[pixel[won]] = tri[owner[won]]

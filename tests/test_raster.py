@@ -81,3 +81,13 @@ def test_triangles_off_screen_or_degenerate_draw_nothing():
                        [[5, 5, 0], [10, 10, 0], [15, 15, 0]]], float)    # zero area
     index, depth = rasterize(screen, W, H)
     assert (index == -1).all() and np.isinf(depth).all()
+
+
+def test_a_triangle_larger_than_a_batch_is_drawn_whole(monkeypatch):
+    screen = np.array([[[-10, -10, 1.0], [200, -10, 2.0], [-10, 200, 3.0]]])
+    whole = rasterize(screen, 100, 80)
+    monkeypatch.setattr(raster, "BATCH", 50)          # smaller than one row of the box
+    banded = rasterize(screen, 100, 80)
+    assert (whole[0] == 0).all()
+    assert np.array_equal(banded[0], whole[0])
+    assert np.allclose(banded[1], whole[1], atol=1e-4)
