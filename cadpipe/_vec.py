@@ -17,3 +17,12 @@ def unit(v):
     """Rows scaled to unit length (zero rows stay zero)."""
     n = norm(v)[..., None]
     return v / np.where(n > 0, n, 1.0)
+
+
+def cross(a, b):
+    """Row-wise cross product of (N, 3) arrays, without np.cross's axis juggling."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out

@@ -54,3 +54,28 @@ def fan_faces(ring_start, sides, *, apex=None, at_end=False):
         tri = np.stack([np.full(sides, apex - ring_start), k, (k + 1) % sides], 1) + ring_start
         tri[:, 0] = apex
     return tri if at_end else tri[:, ::-1]
+
+
+def zipper_faces(a_start, n_a, b_start, n_b, b_offset=0):
+    """Faces joining ring A (upstream) to ring B (downstream) of any sizes.
+
+    Vertex ``i`` of A sits at angle ``2*pi*i/n_a`` and vertex ``j`` of B at
+    ``2*pi*(j + b_offset)/n_b`` about the common axis. Walking both rings in angle
+    order, each A edge gets one triangle to the current B vertex and each B edge one
+    to the current A vertex: ``n_a + n_b`` triangles, every vertex used. When
+    ``n_b`` is a multiple of ``n_a`` and the rings are aligned, this is the source's
+    n-to-1 stitch: each A vertex fans over ``n_b / n_a`` B edges.
+    """
+    mid_a = (np.arange(n_a) + 0.5) / n_a
+    mid_b = ((np.arange(n_b) + 0.5 + b_offset) / n_b) % 1.0
+    first_b = int(np.argmin(mid_b))                   # the B vertex current at angle 0
+    mid_b = np.roll(mid_b, -first_b)
+    is_a = np.concatenate([np.ones(n_a, bool), np.zeros(n_b, bool)])
+    order = np.lexsort((~is_a, np.concatenate([mid_a, mid_b])))   # by angle, A first on ties
+    is_a = is_a[order]
+    a_cur = np.cumsum(is_a) - is_a                    # A edges passed before each event
+    b_cur = np.cumsum(~is_a) - ~is_a
+    a0, a1 = a_start + a_cur % n_a, a_start + (a_cur + 1) % n_a
+    b0 = b_start + (first_b + b_cur) % n_b
+    b1 = b_start + (first_b + b_cur + 1) % n_b
+    return np.where(is_a[:, None], np.stack([a0, a1, b0], 1), np.stack([a0, b1, b0], 1))

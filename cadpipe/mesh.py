@@ -12,6 +12,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ._validate import as_points
+from ._vec import cross
 from .errors import InputError, MeshError
 
 
@@ -60,7 +61,8 @@ class Mesh:
             if face_part.shape != (len(faces),):
                 raise InputError(f"face_part: expected {len(faces)} part indices, "
                                  f"got shape {face_part.shape}")
-            if face_part.size and not 0 <= face_part.min() <= face_part.max() < len(self._part_names):
+            names = len(self._part_names)
+            if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
                 raise InputError("face_part: indices must point into part_names")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
@@ -127,7 +129,7 @@ class Mesh:
     @cached_property
     def _cross(self):
         t = self.triangles
-        return np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        return cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
 
     @cached_property
     def face_areas(self):
@@ -147,7 +149,7 @@ class Mesh:
     def volume(self):
         """Signed volume by the divergence theorem: positive when faces point outward."""
         t = self.triangles
-        return float(np.einsum("ij,ij->", t[:, 0], np.cross(t[:, 1], t[:, 2])) / 6.0)
+        return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property
     def bounds(self):
@@ -236,7 +238,7 @@ class Mesh:
             r = tri[None, :, :, :] - pts[start:start + step, None, None, :]
             n = np.linalg.norm(r, axis=3)
             a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
-            det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+            det = np.einsum("pfi,pfi->pf", a, cross(b, c))
             dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
                     + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
                     + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]

@@ -11,7 +11,7 @@ from functools import cached_property
 import numpy as np
 
 from ._validate import as_points, as_positive
-from ._vec import dot, norm, unit
+from ._vec import cross, dot, norm, unit
 from .errors import GeometryError, InputError
 
 #: consecutive points closer than this fraction of the path's extent are merged
@@ -189,6 +189,24 @@ class Path:
         pts = np.where(corner[source][:, None], arc, p)
         return Path(pts, closed=self._closed), source
 
+    def trimmed(self, start=0.0, end=0.0):
+        """This open path with ``start`` and ``end`` arc length removed from its ends.
+
+        Returns the new path and each new point's arc length on this path.
+        """
+        if self._closed:
+            raise InputError("trimmed: a closed path has no ends to trim")
+        lo, hi = float(start), self.length - float(end)
+        if not 0.0 <= lo < hi <= self.length:
+            raise GeometryError(f"cannot trim {start:g} and {end:g} off a path "
+                                f"{self.length:.6g} long; the pipe is too short")
+        arc = self.arc_length
+        tol = 2 * DUPLICATE_TOLERANCE * max(float(np.ptp(self._points, axis=0).max()), 1.0)
+        inner = (arc > lo + tol) & (arc < hi - tol)     # keep the cut points distinct
+        s = np.concatenate([[lo], arc[inner], [hi]])
+        pts = np.stack([np.interp(s, arc, self._points[:, c]) for c in range(3)], axis=1)
+        return Path(pts), s
+
     def reversed(self):
         return Path(self._points[::-1], closed=self._closed)
 
@@ -231,7 +249,7 @@ class Path:
         d1, d2 = curve(dense_u, 1), curve(dense_u, 2)
         speed = norm(d1)
         # a cusp (zero speed) has no curvature to resolve: sample it at the base density
-        curvature = np.divide(norm(np.cross(d1, d2)), speed ** 3,
+        curvature = np.divide(norm(cross(d1, d2)), speed ** 3,
                               out=np.zeros_like(speed), where=speed > 1e-12 * speed.max())
         density = np.full_like(speed, 1.0 / step)                 # points per unit length
         if tolerance is not None:

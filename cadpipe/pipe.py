@@ -12,7 +12,7 @@ import numpy as np
 
 from . import clearance
 from ._validate import as_choice, as_int, as_positive
-from ._vec import dot
+from ._vec import cross, dot
 from .errors import GeometryError, InputError
 from .frames import FRAME_MODES, frames
 from .loft import band_face_count, band_faces, fan_faces
@@ -60,6 +60,9 @@ class Pipe:
         Rotation-minimizing frames (default) or the source's ``OP x L`` rule.
     normal : (3,) array_like, optional
         Direction of the first ring's vertex 0.
+    end_normal : (3,) array_like, optional
+        Direction the last ring's vertex 0 must take (up to the ring's symmetry, see
+        :attr:`seam_shift`), e.g. to meet a flange; the twist is spread evenly.
     corners : {"miter", "round"}
         Polyline corners as miter joints (full radius through the bend), or rounded
         with arcs of ``bend_radius``.
@@ -75,7 +78,8 @@ class Pipe:
     """
 
     def __init__(self, path, radius, sides=None, *, caps="flat", envelope=False, tolerance=None,
-                 frame="rmf", normal=None, corners="miter", bend_radius=None, miter_limit=4.0,
+                 frame="rmf", normal=None, end_normal=None, corners="miter", bend_radius=None,
+                 miter_limit=4.0,
                  cap_segments=None, repair=False):
         source = path if isinstance(path, Path) else Path(path)
         radii = as_positive(radius, "radius", count=len(source))
@@ -85,6 +89,7 @@ class Pipe:
         self.envelope = bool(envelope)
         self.repair = bool(repair)
         self.normal = normal
+        self.end_normal = end_normal
         self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
         if self.miter_limit < 1.0:
             raise InputError(f"miter_limit: must be >= 1, got {miter_limit}")
@@ -108,6 +113,10 @@ class Pipe:
             radii = radii[index]
         else:
             self.bend_radius = None
+        self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
+                              frame=self.frame, normal=normal, end_normal=end_normal,
+                              miter_limit=self.miter_limit, cap_segments=self.cap_segments,
+                              repair=self.repair)
         self.path = source
         self.radii = np.array(radii, dtype=np.float64)
         self.radii.flags.writeable = False
@@ -115,6 +124,12 @@ class Pipe:
     def __repr__(self):
         return (f"<cadpipe.Pipe {self.sides} sides, {len(self.path)} rings, "
                 f"radius {self.radii.min():.6g}..{self.radii.max():.6g}>")
+
+    def trimmed(self, start=0.0, end=0.0):
+        """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
+        path, arc = self.path.trimmed(start, end)
+        radii = np.interp(arc, self.path.arc_length, self.radii)
+        return Pipe(path, radii, **self._settings)
 
     @property
     def closed(self):
@@ -129,7 +144,7 @@ class Pipe:
     def _frames(self):
         p = self.path
         return frames(p.points, p.tangents, self.frame, closed=p.closed, normal=self.normal,
-                      symmetry=2 * np.pi / self.sides)
+                      end_normal=self.end_normal, symmetry=2 * np.pi / self.sides)
 
     @property
     def normals(self):
@@ -138,11 +153,12 @@ class Pipe:
 
     @property
     def binormals(self):
-        return np.cross(self.path.tangents, self.normals)
+        return cross(self.path.tangents, self.normals)
 
     @property
     def seam_shift(self):
-        """Closed pipes: the last ring's vertex k joins the first ring's vertex k + shift."""
+        """The last ring's vertex k meets vertex k + shift of the ring it must match: the
+        first ring of a closed pipe, or the ring that ``end_normal`` describes."""
         return self._frames[1]
 
     @cached_property
@@ -165,9 +181,14 @@ class Pipe:
         r = self.ring_radii[:, None]
         return np.stack([n * r, b * r], axis=1)
 
-    def rings(self):
-        """(N, sides, 3) ring vertices, counter-clockwise about the tangent."""
-        a = 2 * np.pi * np.arange(self.sides) / self.sides
+    def rings(self, sides=None):
+        """(N, sides, 3) ring vertices, counter-clockwise about the tangent.
+
+        ``sides`` defaults to the pipe's own; a splice samples a transition's rings at
+        another size on the same frames.
+        """
+        sides = self.sides if sides is None else sides
+        a = 2 * np.pi * np.arange(sides) / sides
         # [cos a, sin a, 1] @ [axis_cos; axis_sin; centre]: one batched product per ring
         basis = np.stack([np.cos(a), np.sin(a), np.ones_like(a)], axis=1)
         return basis @ np.concatenate([self.ring_axes(), self.path.points[:, None, :]], axis=1)
@@ -242,6 +263,11 @@ class Pipe:
             apex += pole is not None
             row += size
         return vertices, faces
+
+    @property
+    def cap_ring_count(self):
+        """Rings a cap adds before its pole (0 for flat caps)."""
+        return self.cap_segments - 1 if self.caps == "round" else 0
 
     def _cap_rings(self, index, sign):
         """A flat cap: ``(empty, None)``. A round cap: its latitude rings past the end
