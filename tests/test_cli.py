@@ -29,3 +29,12 @@ def test_user_error_is_one_line_without_traceback(tmp_path):
     assert run.returncode == 1
     assert "Traceback" not in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_outputs_get_ordinary_file_permissions(tmp_path):
+    import os
+
+    out = cadpipe.Pipe([[0, 0, 0], [1, 0, 0]], 0.1).mesh().export(tmp_path / "p.stl")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert os.stat(out).st_mode & 0o777 == 0o666 & ~mask
