@@ -2,3 +2,4 @@
 
 from . import demo  # noqa: F401
 from . import check  # noqa: F401
+from . import view  # noqa: F401
