@@ -13,6 +13,8 @@ from . import atomic_path
 from .flatten import flatten
 
 _RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
+#: faces per block of :func:`stl_records` (its temporaries fit in L2 cache)
+_BLOCK = 1 << 16
 
 
 def write_stl(obj, path, *, ascii=False):
@@ -41,22 +43,28 @@ def stl_records(vertices, faces):
     """(F,) binary STL records: float32 unit normal, three float32 corners, zero attribute.
 
     The corners are gathered straight into the records and the normals computed
-    from them there, so a million triangles take a few tens of milliseconds.
+    from them there, a block of faces at a time so the temporaries stay in the
+    CPU cache: a million triangles take a few tens of milliseconds.
     """
     v32 = np.asarray(vertices, dtype=np.float32)
     records = np.empty(len(faces), dtype=_RECORD)
-    corners = records["corners"]                        # (F, 3, 3) view, 50-byte rows
+    for start in range(0, len(faces), _BLOCK):
+        _fill(v32, faces[start:start + _BLOCK], records[start:start + _BLOCK])
+    return records
+
+
+def _fill(v32, faces, records):
+    corners = records["corners"]                            # (F, 3, 3) view, 50-byte rows
     np.take(v32, faces, axis=0, out=corners, mode="wrap")   # faces are in range: no wrap
     u, v = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
     cross = (u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
              u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
     length = np.sqrt(cross[0] ** 2 + cross[1] ** 2 + cross[2] ** 2)
-    length[length == 0] = 1.0                           # degenerate facet: zero normal
+    length[length == 0] = 1.0                               # degenerate facet: zero normal
     normal = records["normal"]
     for axis in range(3):
         np.divide(cross[axis], length, out=normal[:, axis])
     records["attr"] = 0
-    return records
 
 
 def _write_ascii(records, tmp, name):
