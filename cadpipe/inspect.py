@@ -22,7 +22,8 @@ def check_mesh(mesh):
     cut through each other).
     """
     edges = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, faces_per_edge = np.unique(edges, axis=0, return_counts=True)
+    _, faces_per_edge = np.unique(edges[:, 0] * len(mesh.vertices) + edges[:, 1],
+                                  return_counts=True)
     boundary = int((faces_per_edge == 1).sum())
     nonmanifold = int((faces_per_edge > 2).sum())
     crossing = len(self_intersections(mesh))
