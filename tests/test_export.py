@@ -165,11 +165,13 @@ def test_usdz_is_a_package_around_a_binary_layer(tmp_path):
     assert names == ["pipe.usdc"]
 
 
-def test_lone_pipe_exports_with_its_parameters(tmp_path):
+@pytest.mark.parametrize("suffix", ["usda", "usdz"])
+def test_lone_pipe_exports_with_its_parameters(tmp_path, usd_validation, suffix):
     from pxr import Usd
 
     pipe = bent_pipe(sides=9)
-    stage = Usd.Stage.Open(str(export(pipe, tmp_path / "pipe.usda")))
+    stage = Usd.Stage.Open(str(export(pipe, tmp_path / f"pipe.{suffix}")))
+    assert list(usd_validation.Validate(stage)) == []
     part = stage.GetDefaultPrim().GetChild("pipe")
     assert part.GetAttribute("cadpipe:sides").Get() == 9
     assert part.GetAttribute("cadpipe:radius_max").Get() == pytest.approx(0.1)

@@ -113,7 +113,7 @@ def shading_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
             >= np.cos(np.radians(angle)) - 1e-6)
     weighted = normal_of * angles.ravel()[corners][:, None]
     summed = _unit(_group_sum(first[near], weighted[second[near]], len(corners)))
-    found = np.einsum("ij,ij->i", summed, summed) > 0       # degenerate faces keep the vertex normal
+    found = np.einsum("ij,ij->i", summed, summed) > 0   # degenerate faces: keep the vertex normal
     # corners of one smoothing group sum the same faces in the same order: equal rows
     extra, which = np.unique(summed[found], axis=0, return_inverse=True)
     corner_index = corner_vertex.copy()

@@ -52,6 +52,8 @@ _RELS = (
 _VERTEX = (b'<vertex x="', 0, b"e", 1, b'" y="', 2, b"e", 3, b'" z="', 4, b"e", 5, b'"/>\n')
 _TRIANGLE = (b'<triangle v1="', 0, b'" v2="', 1, b'" v3="', 2, b'"/>\n')
 _TRIANGLE_COLORED = _TRIANGLE[:-1] + (b'" p1="', 3, b'"/>\n')
+#: longest possible vertex or triangle row, in bytes (with 32-bit indices)
+_MAX_ROW_BYTES = 96
 #: rows formatted per chunk: bounds memory and lets compression overlap formatting
 _CHUNK = 1 << 16
 
@@ -74,7 +76,10 @@ def write_3mf(obj, path, *, compresslevel=1):
             zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
         zf.writestr("[Content_Types].xml", _CONTENT_TYPES)
         zf.writestr("_rels/.rels", _RELS)
-        with zf.open("3D/3dmodel.model", "w", force_zip64=True) as stream, \
+        # Zip64 headers only where the model may pass 2 GiB: some readers refuse them
+        rows = sum(len(p.mesh.vertices) + len(p.mesh.faces) for _, p in parts)
+        large = _MAX_ROW_BYTES * rows + 4096 * len(parts) >= zipfile.ZIP64_LIMIT
+        with zf.open("3D/3dmodel.model", "w", force_zip64=large) as stream, \
                 ThreadPoolExecutor(max_workers=1) as compressor:
             # zlib releases the GIL: deflate one chunk while the next is formatted
             writing = None
