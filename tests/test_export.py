@@ -316,6 +316,14 @@ def test_binary_stl_holds_the_float32_triangles_and_their_normals(tmp_path_facto
     assert cadpipe.Mesh.load(target).is_watertight
 
 
+@pytest.mark.parametrize("suffix", ["3mf", "usda", "glb"])
+def test_unknown_units_are_a_clear_error(tmp_path, suffix):
+    scene = Scene("cell", (ScenePart("pipe", bent_pipe().mesh()),), units="furlong")
+    with pytest.raises(InputError, match="units"):
+        export(scene, tmp_path / f"cell.{suffix}")
+    assert not any(tmp_path.iterdir())
+
+
 def test_empty_part_is_a_clear_error(tmp_path):
     empty = cadpipe.Mesh(np.zeros((0, 3)), np.zeros((0, 3), int))
     with pytest.raises(InputError, match="no triangles"):

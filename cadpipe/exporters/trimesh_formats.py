@@ -1,8 +1,8 @@
 """GLB, OBJ and PLY through trimesh's exporters.
 
 - **GLB** (VR, web viewers) keeps the scene: a root node named after the scene,
-  one node per part with its transform, and one primitive per colour with a PBR
-  material. glTF is Y-up and in metres by definition, so the root node carries the
+  one node per part with its transform (a part with several colours, a union,
+  gets a child node per colour), and a PBR material per colour. glTF is Y-up and in metres by definition, so the root node carries the
   change from the scene's up axis and units; a viewer shows the part upright and
   life-size. Normals follow the crease angle (hard caps, smooth tubes).
 - **OBJ** and **PLY** hold one mesh: every part in world coordinates, in the
@@ -12,6 +12,7 @@
 
 import numpy as np
 
+from .._validate import as_choice
 from ..scene import as_scene
 from . import atomic_path, unique_name
 from .flatten import flatten, labelled
@@ -71,7 +72,8 @@ def _colored_pieces(painted, crease_angle):
 def gltf_root(scene):
     """4x4 matrix from the scene's axes and units to glTF's (+Y up, metres)."""
     matrix = np.eye(4)
-    matrix[:3, :3] = _TO_Y_UP[str(scene.up_axis).upper()] * scene.meters_per_unit
+    up = as_choice(str(scene.up_axis).upper(), "up_axis", tuple(_TO_Y_UP))
+    matrix[:3, :3] = _TO_Y_UP[up] * scene.meters_per_unit
     return matrix
 
 
