@@ -5,7 +5,8 @@ bore and leaves sealed voids. A hollow part therefore hands an assembly two list
 (:meth:`HollowPipe.solids`): the outer solids it adds and the bores it cuts, and
 the assembly computes ``union(outer solids) - union(bores)``. A
 :class:`Junction` (T, Y, any branching) is several hollow pipes treated as one
-part. Bores of open ends run a little past the pipe, so the cut leaves no skin.
+part; a :class:`HollowChain` is spliced pipes with a spliced bore. Bores of open
+ends run a little past the pipe, so the cut leaves no skin.
 """
 
 from functools import cached_property
@@ -29,25 +30,44 @@ def _ends(ends):
     return tuple(as_choice(e, "ends", END_STYLES) for e in pair)
 
 
-def _stretch(path, radii, start, stop):
-    """Points and radii of ``path`` between arc lengths ``start`` and ``stop``.
+def _wall(wall, pipes):
+    """``wall`` as a float, thinner than every pipe's smallest radius."""
+    wall = float(as_positive(wall, "wall"))
+    thinnest = min(float(p.radii.min()) for p in pipes)
+    if wall >= thinnest:
+        raise InputError(f"wall: {wall:g} must be less than the smallest pipe radius "
+                         f"{thinnest:g}")
+    return wall
 
-    Values outside ``[0, length]`` extend the path straight along its end directions;
-    values inside trim it. Radii are interpolated (and held constant past the ends).
+
+def bore(pipe, wall, start="open", end="open"):
+    """The :class:`Pipe` cut out of ``pipe`` to leave walls ``wall`` thick.
+
+    Same path, sides, frames and caps, radius less ``wall``, rings aligned with the
+    outer rings. Per end: ``"open"`` runs the bore ``wall`` past the end (plus the
+    cap's reach for round caps), ``"closed"`` stops it ``wall`` short of a flat cap
+    (a round cap gets its own round cap inside), ``"flush"`` ends it with the pipe
+    (where a splice continues it).
     """
-    s = path.arc_length
-    inner = (s > start) & (s < stop)
-
-    def point_at(t):
-        if t <= 0:
-            return path.points[0] + t * path.directions[0]
-        if t >= path.length:
-            return path.points[-1] + (t - path.length) * path.directions[-1]
-        return np.array([np.interp(t, s, path.points[:, k]) for k in range(3)])
-
-    points = np.vstack([point_at(start), path.points[inner], point_at(stop)])
-    ends = np.interp([start, stop], s, radii)
-    return points, np.concatenate([[ends[0]], radii[inner], [ends[1]]])
+    reach = pipe.ring_radii.max() if pipe.caps == "round" else 0.0
+    extend = {"open": wall + reach, "closed": 0.0, "flush": 0.0}
+    trim = {"open": 0.0, "closed": wall if pipe.caps == "flat" else 0.0, "flush": 0.0}
+    path, radii = pipe.path, pipe.radii - wall
+    if not path.closed and (extend[start] or extend[end]):
+        head = [path.points[0] - extend[start] * path.directions[0]] if extend[start] else []
+        tail = [path.points[-1] + extend[end] * path.directions[-1]] if extend[end] else []
+        path = Path(np.vstack([*head, path.points, *tail]))
+        radii = np.concatenate([radii[:len(head)], radii, radii[len(radii) - len(tail):]])
+    inner = Pipe(path, radii, pipe.sides, caps=pipe.caps, envelope=pipe.envelope,
+                 frame=pipe.frame, normal=pipe.normals[0], end_normal=pipe.end_normal,
+                 miter_limit=pipe.miter_limit, cap_segments=pipe.cap_segments,
+                 repair=pipe.repair)
+    if path.closed or not (trim[start] or trim[end]):
+        return inner
+    if trim[start] + trim[end] >= path.length:
+        raise InputError(f"wall: closed ends {wall:g} thick leave no bore in a pipe "
+                         f"{path.length:g} long; use a thinner wall or open ends")
+    return inner.trimmed(trim[start], trim[end])
 
 
 class Hollow:
@@ -80,11 +100,7 @@ class HollowPipe(Hollow):
         if not isinstance(pipe, Pipe):
             raise InputError(f"pipe: expected a cadpipe.Pipe, got {type(pipe).__name__}")
         self.pipe = pipe
-        self.wall = float(as_positive(wall, "wall"))
-        thinnest = float(pipe.radii.min())
-        if self.wall >= thinnest:
-            raise InputError(f"wall: {self.wall:g} must be less than the pipe's smallest radius "
-                             f"{thinnest:g}")
+        self.wall = _wall(wall, [pipe])
         self.ends = _ends(ends)
 
     def __repr__(self):
@@ -93,30 +109,8 @@ class HollowPipe(Hollow):
 
     @cached_property
     def bore(self):
-        """The :class:`Pipe` cut out of the outer one, rings aligned with its rings."""
-        outer = self.pipe
-        path, radii = outer.path, outer.radii - self.wall
-        first = 0
-        if not outer.closed:
-            reach = outer.ring_radii.max() if outer.caps == "round" else 0.0
-
-            def past(style):            # how far the bore runs past an end (< 0: short of it)
-                if style == "open":
-                    return self.wall + reach
-                return -self.wall if outer.caps == "flat" else 0.0
-
-            start, stop = -past(self.ends[0]), path.length + past(self.ends[1])
-            if stop <= start:
-                raise InputError(f"wall: closed ends {self.wall:g} thick leave no bore in a "
-                                 f"pipe {path.length:g} long; use a thinner wall or open ends")
-            points, radii = _stretch(path, radii, start, stop)
-            path = Path(points)
-            first = min(int(np.searchsorted(outer.path.arc_length, max(start, 0.0))),
-                        len(outer.path) - 1)
-        return Pipe(path, radii, outer.sides, caps=outer.caps, envelope=outer.envelope,
-                    frame=outer.frame, normal=outer.normals[first],
-                    miter_limit=outer.miter_limit, cap_segments=outer.cap_segments,
-                    repair=outer.repair)
+        """The :class:`Pipe` cut out of the outer one (see :func:`bore`)."""
+        return bore(self.pipe, self.wall, *self.ends)
 
     def solids(self):
         """``([outer mesh], [bore mesh])``: what an assembly adds and what it cuts."""
@@ -152,3 +146,45 @@ class Junction(Hollow):
     def attributes(self):
         return {"kind": "junction", "pipes": len(self.pipes),
                 "wall": max(p.wall for p in self.pipes)}
+
+
+class HollowChain(Hollow):
+    """Pipes spliced into one chain (:func:`cadpipe.splice`) with a wall ``wall`` thick.
+
+    The outer chain minus the chain of bores. The pipes first give up room for the
+    transitions the way :func:`~cadpipe.splice` does, so both chains splice between
+    the same end points and tangents and each bore transition runs inside its outer
+    one, ``wall`` in from it. ``ends`` applies to the chain's two ends; a closed chain
+    has none.
+    """
+
+    def __init__(self, pipes, wall, ends="open", transition="lcm", closed=False):
+        pipes = tuple(pipes)
+        if not pipes or not all(isinstance(p, Pipe) for p in pipes):
+            raise InputError("pipes: expected one or more cadpipe.Pipe")
+        self.pipes = pipes
+        self.wall = _wall(wall, pipes)
+        self.ends = _ends(ends)
+        self.transition = transition
+        self.closed = bool(closed)
+
+    def __repr__(self):
+        return f"<cadpipe.HollowChain of {len(self.pipes)} pipes, wall {self.wall:g}>"
+
+    def solids(self):
+        """``([spliced outer pipes], [spliced bores])``."""
+        from .splice import _make_room, splice
+
+        outers = _make_room(list(self.pipes), self.closed)
+        last = len(outers) - 1
+        open_ends = not self.closed
+        bores = [bore(p, self.wall, self.ends[0] if i == 0 and open_ends else "flush",
+                      self.ends[1] if i == last and open_ends else "flush")
+                 for i, p in enumerate(outers)]
+        options = {"transition": self.transition, "closed": self.closed}
+        return [splice(*outers, **options)], [splice(*bores, **options)]
+
+    def attributes(self):
+        return {"kind": "hollow chain", "pipes": len(self.pipes), "wall": self.wall,
+                "ends": "/".join(self.ends), "transition": self.transition,
+                "closed": self.closed}

@@ -16,6 +16,7 @@ to the spec's folder.
 
 import inspect
 import json
+import re
 import tomllib
 import typing
 from contextlib import contextmanager
@@ -76,8 +77,8 @@ class SpecContext:
     def keyed(self, key, table=()):
         """Report a :class:`CadpipeError` raised inside as being about ``key``.
 
-        A message that starts with one of ``table``'s keys (``"radius: ..."``) is
-        reported at that key, ``key.radius``.
+        A message that starts with one of ``table``'s keys (``"radius: ..."``, or
+        ``"pipes[1].wall: ..."``) is reported at that key, ``key.radius``.
         """
         try:
             yield
@@ -86,7 +87,7 @@ class SpecContext:
         except CadpipeError as exc:
             text = str(exc)
             head, sep, rest = text.partition(": ")
-            if sep and head in table:
+            if sep and re.split(r"[.\[]", head, maxsplit=1)[0] in table:
                 raise self.error(f"{key}.{head}" if key else head, rest) from None
             raise self.error(key, text) from None
 

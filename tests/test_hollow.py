@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import cadpipe
-from cadpipe import HollowPipe, Junction, Pipe
+from cadpipe import HollowChain, HollowPipe, Junction, Pipe
 
 
 def polygon_area(radius, sides):
@@ -136,6 +136,41 @@ def test_closed_loop_hollow_pipe_is_a_torus_shell_with_a_void():
     mesh = hollow.mesh()
     assert mesh.volume == pytest.approx(hollow.pipe.mesh().volume - hollow.bore.mesh().volume,
                                         rel=1e-6)
+    assert sorted(np.sign(shells(mesh))) == [-1, 1]
+
+
+def chain_pipes():
+    return [Pipe([[0, 0, 0], [1, 0, 0]], 0.10, 12),
+            Pipe([[1, 0, 0], [1.5, 0.5, 0], [2, 0.5, 0]], 0.08, 16)]
+
+
+@pytest.mark.parametrize("transition", ["lcm", "merge"])
+def test_hollow_chain_bore_lies_inside_the_spliced_outer(transition):
+    chain = HollowChain(chain_pipes(), 0.02, ends="closed", transition=transition)
+    mesh = chain.mesh()
+    (outer,), (inner,) = chain.solids()
+    # outer - bore has exactly their volume difference only if the bore is inside
+    assert mesh.is_watertight and mesh.volume == pytest.approx(outer.volume - inner.volume,
+                                                               rel=1e-6)
+    assert sorted(np.sign(shells(mesh))) == [-1, 1]
+
+
+def test_open_hollow_chain_is_one_tube_through_its_transitions():
+    mesh = HollowChain(chain_pipes(), 0.02).mesh()
+    assert mesh.is_watertight and mesh.n_bodies == 1 and mesh.genus == 1
+    assert not inside(mesh, [1.0, 0, 0])         # the axis where the transition begins
+
+
+def test_closed_hollow_chain_is_a_ring_shell_around_a_ring_void():
+    def arc(a0, a1):
+        t = np.radians(np.linspace(a0, a1, 20))
+        return np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]
+
+    chain = HollowChain([Pipe(arc(0, 160), 0.1, 12), Pipe(arc(180, 340), 0.1, 16)], 0.02,
+                        closed=True)
+    mesh = chain.mesh()
+    (outer,), (inner,) = chain.solids()
+    assert mesh.volume == pytest.approx(outer.volume - inner.volume, rel=1e-6)
     assert sorted(np.sign(shells(mesh))) == [-1, 1]
 
 

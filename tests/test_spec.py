@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import cadpipe
-from cadpipe import HollowPipe, Junction, Pipe, primitives
+from cadpipe import HollowChain, HollowPipe, Junction, Pipe, primitives
 from cadpipe.spec import read
 from cadpipe.transform import placement
 
@@ -144,6 +144,29 @@ def test_junction_entries_inherit_the_junction_defaults(tmp_path):
     assert (branch.ends, branch.pipe.sides) == (("open", "closed"), 12)
 
 
+def test_chain_kind_splices_its_pipes(tmp_path):
+    spec = write(tmp_path, """
+        [[parts]]
+        kind = "chain"
+        transition = "merge"
+        sides = 12
+        [[parts.pipes]]
+        path = [[0, 0, 0], [1, 0, 0]]
+        radius = 0.1
+        [[parts.pipes]]
+        path = [[1.3, 0, 0], [2, 0, 0]]
+        radius = 0.06
+        sides = 8
+        """)
+    spliced = read(spec).assembly.parts[0].obj
+    direct = cadpipe.splice(Pipe([[0, 0, 0], [1, 0, 0]], 0.1, 12),
+                            Pipe([[1.3, 0, 0], [2, 0, 0]], 0.06, 8), transition="merge")
+    np.testing.assert_array_equal(spliced.vertices, direct.vertices)
+    hollow = write(tmp_path, spec.read_text().replace('transition = "merge"',
+                                                      'transition = "merge"\nwall = 0.02'))
+    assert isinstance(read(hollow).assembly.parts[0].obj, HollowChain)
+
+
 BAD_SPECS = [
     # (spec body, message fragments): each names the file, the key path and what was expected
     ("""
@@ -218,6 +241,21 @@ BAD_SPECS = [
     ("""
      parts = []
      """, ["parts: expected at least one part"]),
+    ("""
+     [[parts]]
+     kind = "chain"
+     [[parts.pipes]]
+     path = [[0, 0, 0], [1, 0, 0]]
+     radius = 0.1
+     wall = 0.01
+     """, ["parts[0].pipes[0].wall: give the wall on the chain, not on its pipes"]),
+    ("""
+     [[parts]]
+     kind = "pipe"
+     path = [[0, 0, 0], [1, 0, 0]]
+     radius = 0.1
+     ends = "closed"
+     """, ["parts[0].ends: only a hollow pipe has open or closed ends; give wall too"]),
     ("""
      [[parts]]
      kind = "box"

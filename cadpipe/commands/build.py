@@ -27,7 +27,7 @@ def build(args):
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from ..exporters import exporters, suffix_of
+    from ..exporters import ensure_folder, exporters, suffix_of
     from ..spec import read
 
     spec = read(args.spec)
@@ -53,7 +53,7 @@ def build(args):
         solid = assembly.union(progress=step)
         for path, mode in outputs:
             progress.update(task, description=f"writing {path.name}")
-            path.parent.mkdir(parents=True, exist_ok=True)
+            ensure_folder(path.parent)
             assembly.export(path, mode)
             step(f"wrote {path.name}")
     report.print(f"{assembly.name}: {len(assembly.parts)} parts, {len(solid.faces)} triangles, "
