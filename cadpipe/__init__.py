@@ -13,6 +13,7 @@ from .splice import splice
 from .assembly import Assembly
 from .hollow import HollowChain, HollowPipe, Junction
 from .spec import load
+from . import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
 
 __version__ = "0.1.0"
 

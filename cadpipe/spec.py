@@ -166,6 +166,9 @@ def _path_table(ctx, *, points: list | str, closed: bool = False, spline: bool =
         else _points(points, "points")
     if spline:
         return Path.spline(pts, step, tolerance=tolerance, closed=closed)
+    if step is not None or tolerance is not None:
+        raise InputError(f"{'step' if step is not None else 'tolerance'}: only a fitted path "
+                         "has one; add spline = true")
     return Path(pts, closed=closed)
 
 

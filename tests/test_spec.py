@@ -234,6 +234,12 @@ BAD_SPECS = [
      """, ["parts[0].pipes[0].path.smooth: unknown key"]),
     ("""
      [[parts]]
+     kind = "pipe"
+     path = { points = [[0, 0, 0], [1, 0, 0]], step = 0.1 }
+     radius = 0.1
+     """, ["parts[0].path.step: only a fitted path has one; add spline = true"]),
+    ("""
+     [[parts]]
      kind = "box"
      size = 1
      op = "xor"
