@@ -1,3 +1,4 @@
 """One module per ``cadpipe`` subcommand; importing this package registers them all."""
 
 from . import demo  # noqa: F401
+from . import collide  # noqa: F401
