@@ -1,16 +1,16 @@
 """cadpipe: watertight tube meshes along 3D paths.
 
 The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
-:class:`Pipe` (S2-S4) -> :class:`Mesh`, then export.
+:class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then export.
 """
 
-from .errors import (CadpipeError, ExportError, GeometryError, InputError, MeshError,
-                     SpecError)
+from .errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
 from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe
+from .splice import splice
 
 __version__ = "0.1.0"
 
 __all__ = ["CadpipeError", "ExportError", "GeometryError", "InputError", "Mesh", "MeshError",
-           "Path", "Pipe", "SpecError", "__version__"]
+           "Path", "Pipe", "SpecError", "__version__", "splice"]

@@ -9,6 +9,8 @@ sum of their radii. All three are vectorized over the path.
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ._vec import dot, norm
+
 
 def tube_self_intersections(pipe):
     """Findings (strings naming path points and arc lengths) for ``pipe``; empty if none."""
@@ -42,10 +44,10 @@ def _local_overlaps(pipe):
     t = path.tangents
 
     def g(tangent):
-        along = np.einsum("ij,ij->i", tangent, d)
+        along = dot(tangent, d)
         return -(tangent - along[:, None] * d) / along[:, None]
 
-    spread = np.linalg.norm(g(t[j]) - g(t[k]), axis=1)
+    spread = norm(g(t[j]) - g(t[k]))
     rho = np.maximum(pipe.ring_radii[j], pipe.ring_radii[k])
     bad = np.flatnonzero(rho * spread >= path.segment_lengths * (1 - 1e-9))
     return [f"{_where(path, i)}: radius {pipe.ring_radii[i]:.6g} exceeds the local bend radius "
@@ -74,7 +76,7 @@ def _distant_overlaps(pipe):
     if len(pairs) == 0:
         return []
     i, j = pairs[:, 0], pairs[:, 1]
-    dist = np.linalg.norm(samples[i] - samples[j], axis=1)
+    dist = norm(samples[i] - samples[j])
     close = dist < r[i] + r[j]
     i, j, dist = i[close], j[close], dist[close]
     n = len(samples)
@@ -87,7 +89,7 @@ def _distant_overlaps(pipe):
         else:
             valid = (ii >= 0) & (ii < n) & (jj >= 0) & (jj < n)
         ii, jj = ii.clip(0, n - 1), jj.clip(0, n - 1)
-        other = np.linalg.norm(samples[ii] - samples[jj], axis=1)
+        other = norm(samples[ii] - samples[jj])
         local_min &= ~valid | (other >= dist)
     gap = np.abs(s[i] - s[j])
     if closed:

@@ -45,7 +45,7 @@ def main(argv=None):
     args = build_parser().parse_args(argv)
     try:
         return args.func(args) or 0
-    except CadpipeError as exc:
+    except (CadpipeError, OSError) as exc:
         print(f"cadpipe {args.command}: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

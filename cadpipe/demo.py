@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from .exporters import ensure_folder
 from .path import Path
 from .pipe import Pipe
 
@@ -12,7 +13,7 @@ WELD_SEAM = np.array([[0.30, -0.20, 0.10], [0.45, -0.05, 0.18], [0.50, 0.15, 0.2
 
 def run_demo(folder, echo=print):
     """Build the example into ``folder`` and return the paths written."""
-    folder.mkdir(parents=True, exist_ok=True)
+    ensure_folder(folder)
     path = Path.spline(WELD_SEAM, step=0.005)
     pipe = Pipe(path, radius=0.02, sides=12, caps="round", envelope=True)
     mesh = pipe.mesh()

@@ -12,45 +12,56 @@ comparison; it twists and is undefined where a tangent points at the origin.
 
 import numpy as np
 
+from ._vec import cross, dot, norm, unit
 from .errors import InputError
 
 FRAME_MODES = ("rmf", "patent")
-
-
-def _unit(v):
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 def _reference(tangents):
     """A perpendicular to each tangent, from the coordinate axis least aligned with it."""
     axis = np.zeros_like(tangents)
     axis[np.arange(len(tangents)), np.argmin(np.abs(tangents), axis=1)] = 1.0
-    u = _unit(np.cross(tangents, axis))
-    return u, np.cross(tangents, u)
+    u = unit(cross(tangents, axis))
+    return u, cross(tangents, u)
 
 
 def _reflect(v, normal, normal_sq):
     """Reflect each row of ``v`` in the plane through the origin with normal ``normal``."""
-    factor = np.divide(2.0 * np.einsum("ij,ij->i", normal, v), normal_sq,
+    factor = np.divide(2.0 * dot(normal, v), normal_sq,
                        out=np.zeros(len(v)), where=normal_sq > 1e-300)
     return v - factor[:, None] * normal
 
 
 def _step_angles(points, tangents, u, w, closed):
     """Angle each double-reflection step turns the reference ``u`` by, against the next ``u``."""
-    nxt = np.roll(np.arange(len(points)), -1) if closed else np.arange(1, len(points))
-    cur = np.arange(len(nxt))
-    v1 = points[nxt] - points[cur]
-    c1 = np.einsum("ij,ij->i", v1, v1)
-    t_left = _reflect(tangents[cur], v1, c1)
-    v2 = tangents[nxt] - t_left
-    c2 = np.einsum("ij,ij->i", v2, v2)
-    moved = _reflect(_reflect(u[cur], v1, c1), v2, c2)
-    return np.arctan2(np.einsum("ij,ij->i", moved, w[nxt]), np.einsum("ij,ij->i", moved, u[nxt]))
+    def following(a):
+        return np.roll(a, -1, axis=0) if closed else a[1:]
+
+    def current(a):
+        return a if closed else a[:-1]
+
+    v1 = following(points) - current(points)
+    c1 = dot(v1, v1)
+    v2 = following(tangents) - _reflect(current(tangents), v1, c1)
+    moved = _reflect(_reflect(current(u), v1, c1), v2, dot(v2, v2))
+    return np.arctan2(dot(moved, following(w)), dot(moved, following(u)))
 
 
-def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, symmetry=None):
+def _angle_in_plane(vector, tangent, u, w, name):
+    """Angle of ``vector`` (projected across ``tangent``) against the reference ``u``."""
+    v = np.asarray(vector, dtype=np.float64)
+    if v.shape != (3,) or not np.isfinite(v).all():
+        raise InputError(f"{name}: expected 3 finite numbers, got {vector!r}")
+    across = v - tangent * (v @ tangent)
+    if np.linalg.norm(across) <= 1e-9 * max(np.linalg.norm(v), 1e-300):
+        raise InputError(f"{name}: is parallel to the path's tangent there; "
+                         "give a direction across the path")
+    return float(np.arctan2(across @ w, across @ u))
+
+
+def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, end_normal=None,
+                               symmetry=None):
     """Twist-free unit normals along a discretized curve.
 
     Parameters
@@ -63,6 +74,9 @@ def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, s
         ``symmetry`` (e.g. ``2*pi/sides`` for a regular n-gon ring) is spread.
     normal : (3,) array_like, optional
         Initial normal (projected into the first normal plane).
+    end_normal : (3,) array_like, optional
+        For an open curve, the normal the last frame must match up to ``symmetry``;
+        the twist that needs is spread evenly by arc length, as for a loop's seam.
     symmetry : float, optional
         Angle by which a ring is symmetric. Defaults to a full turn.
 
@@ -70,33 +84,28 @@ def rotation_minimizing_frames(points, tangents, *, closed=False, normal=None, s
     -------
     normals : (N, 3) array
     seam_shift : int
-        For a closed curve: whole ``symmetry`` steps the frame turned around the loop
-        (the last ring's vertex k meets the first ring's vertex ``k + seam_shift``).
+        Whole ``symmetry`` steps left at the far end: the last ring's vertex k meets
+        vertex ``k + seam_shift`` of the ring it must match (the first ring of a
+        loop, or the ring whose vertex 0 points along ``end_normal``).
     """
     u, w = _reference(tangents)
-    phi0 = 0.0
-    if normal is not None:
-        n0 = np.asarray(normal, dtype=np.float64)
-        if n0.shape != (3,) or not np.isfinite(n0).all():
-            raise InputError(f"normal: expected 3 finite numbers, got {normal!r}")
-        n0 = n0 - tangents[0] * (n0 @ tangents[0])
-        if np.linalg.norm(n0) < 1e-9 * max(np.linalg.norm(normal), 1e-300):
-            raise InputError("normal: is parallel to the path's first tangent; "
-                             "give a direction across the path")
-        phi0 = float(np.arctan2(n0 @ w[0], n0 @ u[0]))
+    phi0 = 0.0 if normal is None else _angle_in_plane(normal, tangents[0], u[0], w[0], "normal")
     delta = _step_angles(points, tangents, u, w, closed)
     phi = phi0 + np.concatenate([[0.0], np.cumsum(delta[: len(points) - 1])])
-    seam_shift = 0
+    if not closed and end_normal is None:
+        return np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w, 0
+    arc = np.concatenate([[0.0], np.cumsum(norm(np.diff(points, axis=0)))])
     if closed:
-        symmetry = 2 * np.pi if symmetry is None else float(symmetry)
-        mismatch = float(delta.sum())
-        seam_shift = int(np.round(mismatch / symmetry))
-        excess = mismatch - seam_shift * symmetry
-        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))])
+        mismatch = -float(delta.sum())
         total = arc[-1] + np.linalg.norm(points[0] - points[-1])
-        phi = phi - excess * arc / total
-    normals = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w
-    return normals, seam_shift
+    else:
+        target = _angle_in_plane(end_normal, tangents[-1], u[-1], w[-1], "end_normal")
+        mismatch = target - phi[-1]
+        total = arc[-1]
+    symmetry = 2 * np.pi if symmetry is None else float(symmetry)
+    steps = int(np.round(mismatch / symmetry))
+    phi = phi + (mismatch - steps * symmetry) * arc / total
+    return np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * w, -steps
 
 
 def patent_frames(points, tangents):
@@ -105,24 +114,26 @@ def patent_frames(points, tangents):
     Where ``OP x L`` vanishes (the tangent points at or away from the origin, or P
     is the origin) the rotation-minimizing normal is used instead.
     """
-    normals = np.cross(points, tangents)
-    size = np.linalg.norm(normals, axis=1)
-    scale = np.maximum(np.linalg.norm(points, axis=1), 1.0)
+    normals = cross(points, tangents)
+    size = norm(normals)
+    scale = np.maximum(norm(points), 1.0)
     bad = size <= 1e-9 * scale
-    normals = _unit(normals)
+    normals = unit(normals)
     if bad.any():
         fallback, _ = rotation_minimizing_frames(points, tangents)
         normals[bad] = fallback[bad]
     return normals
 
 
-def frames(points, tangents, mode="rmf", *, closed=False, normal=None, symmetry=None):
-    """Normals for ``mode`` (``"rmf"`` or ``"patent"``), and the closed-loop seam shift."""
+def frames(points, tangents, mode="rmf", *, closed=False, normal=None, end_normal=None,
+           symmetry=None):
+    """Normals for ``mode`` (``"rmf"`` or ``"patent"``), and the seam shift."""
     if mode == "rmf":
         return rotation_minimizing_frames(points, tangents, closed=closed, normal=normal,
-                                          symmetry=symmetry)
+                                          end_normal=end_normal, symmetry=symmetry)
     if mode == "patent":
-        if closed:
-            raise InputError("frame='patent' cannot close a loop seam; use frame='rmf'")
+        if closed or end_normal is not None:
+            raise InputError("frame='patent' cannot match a seam or an end_normal; "
+                             "use frame='rmf'")
         return patent_frames(points, tangents), 0
     raise InputError(f"frame: expected one of {FRAME_MODES}, got {mode!r}")

@@ -12,6 +12,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ._validate import as_points
+from ._vec import cross
 from .errors import InputError, MeshError
 
 
@@ -60,10 +61,25 @@ class Mesh:
             if face_part.shape != (len(faces),):
                 raise InputError(f"face_part: expected {len(faces)} part indices, "
                                  f"got shape {face_part.shape}")
-            if face_part.size and not 0 <= face_part.min() <= face_part.max() < len(self._part_names):
+            names = len(self._part_names)
+            if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
                 raise InputError("face_part: indices must point into part_names")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
+
+    @classmethod
+    def trusted(cls, vertices, faces, *, attributes=None):
+        """Wrap arrays a cadpipe stage just built, skipping the input checks.
+
+        ``vertices`` must be finite float64 ``(V, 3)`` and ``faces`` int64 ``(F, 3)``
+        indices into them; large pipes are built faster than they can be re-checked.
+        """
+        mesh = cls.__new__(cls)
+        mesh._vertices = _frozen(vertices, np.float64)
+        mesh._faces = _frozen(faces, np.int64)
+        mesh._face_part, mesh._part_names = None, ()
+        mesh._attributes = MappingProxyType(dict(attributes or {}))
+        return mesh
 
     # -- data -----------------------------------------------------------------
     @property
@@ -113,7 +129,7 @@ class Mesh:
     @cached_property
     def _cross(self):
         t = self.triangles
-        return np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        return cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
 
     @cached_property
     def face_areas(self):
@@ -133,7 +149,7 @@ class Mesh:
     def volume(self):
         """Signed volume by the divergence theorem: positive when faces point outward."""
         t = self.triangles
-        return float(np.einsum("ij,ij->", t[:, 0], np.cross(t[:, 1], t[:, 2])) / 6.0)
+        return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property
     def bounds(self):
@@ -208,6 +224,32 @@ class Mesh:
         """Genus of a closed single-body mesh (0 for a sphere-like tube, 1 for a loop)."""
         return (2 * self.n_bodies - self.euler_characteristic) // 2
 
+    def winding_numbers(self, points, chunk=2_000_000):
+        """Generalized winding number of the surface around each point (1 inside, 0 outside).
+
+        Sums the solid angles of all triangles (Van Oosterom and Strackee), vectorized
+        over points and triangles in chunks of about ``chunk`` pairs.
+        """
+        pts = as_points(points, "points", min_count=0)
+        tri = self.triangles
+        out = np.empty(len(pts))
+        step = max(1, chunk // max(len(tri), 1))
+        for start in range(0, len(pts), step):
+            r = tri[None, :, :, :] - pts[start:start + step, None, None, :]
+            n = np.linalg.norm(r, axis=3)
+            a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
+            det = np.einsum("pfi,pfi->pf", a, cross(b, c))
+            dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
+                    + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
+                    + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
+                    + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
+            out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
+        return out
+
+    def contains(self, points):
+        """(P,) bool: which points lie inside this closed mesh (winding number > 1/2)."""
+        return self.winding_numbers(points) > 0.5
+
     def require_solid(self, name="mesh"):
         """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
         if not self.is_watertight:
@@ -278,6 +320,13 @@ class Mesh:
         m = solid.to_mesh64()
         vertices = np.asarray(m.vert_properties)[:, :3]
         faces = np.asarray(m.tri_verts, dtype=np.int64)
+        merge_from = np.asarray(m.merge_from_vert, dtype=np.int64)
+        if len(merge_from):
+            # manifold3d splits vertices between triangle runs; its merge vectors weld them
+            target = np.arange(len(vertices))
+            target[merge_from] = np.asarray(m.merge_to_vert, dtype=np.int64)
+            used, faces = np.unique(target[faces], return_inverse=True)
+            vertices, faces = vertices[used], faces.reshape(-1, 3)
         if not part_names:
             return cls(vertices, faces, **kwargs)
         names = list(dict.fromkeys(part_names.values()))

@@ -11,15 +11,11 @@ from functools import cached_property
 import numpy as np
 
 from ._validate import as_points, as_positive
+from ._vec import cross, dot, norm, unit
 from .errors import GeometryError, InputError
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
-
-
-def _unit(v):
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(n > 0, n, 1.0)
 
 
 class Path:
@@ -41,7 +37,7 @@ class Path:
         extent = float(np.ptp(pts, axis=0).max())
         tol = DUPLICATE_TOLERANCE * max(extent, 1.0)
         keep = np.ones(len(pts), bool)
-        keep[1:] = np.linalg.norm(np.diff(pts, axis=0), axis=1) > tol
+        keep[1:] = norm(np.diff(pts, axis=0)) > tol
         pts = pts[keep]
         if closed and len(pts) > 1 and np.linalg.norm(pts[-1] - pts[0]) <= tol:
             pts = pts[:-1]
@@ -79,7 +75,7 @@ class Path:
 
     @cached_property
     def segment_lengths(self):
-        return np.linalg.norm(self.segments, axis=1)
+        return norm(self.segments)
 
     @cached_property
     def directions(self):
@@ -108,7 +104,7 @@ class Path:
     def turning_angles(self):
         """(N,) angle in radians between the incoming and outgoing segment at each point."""
         d_in, d_out = self._incoming_outgoing
-        cos = np.einsum("ij,ij->i", d_in, d_out).clip(-1.0, 1.0)
+        cos = dot(d_in, d_out).clip(-1.0, 1.0)
         return np.arccos(cos)
 
     @cached_property
@@ -123,7 +119,7 @@ class Path:
         if folds.size:
             raise GeometryError(f"points: the path folds back on itself at point {folds[0]} "
                                 f"({self._points[folds[0]].tolist()}); remove the reversal")
-        return _unit(d_in + d_out)
+        return unit(d_in + d_out)
 
     @cached_property
     def bend_directions(self):
@@ -131,7 +127,7 @@ class Path:
         (zero where the path is straight)."""
         d_in, d_out = self._incoming_outgoing
         bend = d_out - d_in
-        return np.where(self.turning_angles[:, None] > 1e-12, _unit(bend), 0.0)
+        return np.where(self.turning_angles[:, None] > 1e-12, unit(bend), 0.0)
 
     # -- new paths -----------------------------------------------------------
     def resample(self, step):
@@ -180,7 +176,7 @@ class Path:
         a = p - setback[source, None] * d_in[source]          # arc start (tangent point)
         b = p + setback[source, None] * d_out[source]         # arc end
         # the centre lies along the inward normal of the incoming segment at the tangent point
-        inward = _unit(d_out[source] - np.einsum("ij,ij->i", d_out[source], d_in[source])[:, None]
+        inward = unit(d_out[source] - dot(d_out[source], d_in[source])[:, None]
                        * d_in[source])
         centre = a + radius * inward
         al = alpha[source]
@@ -192,6 +188,24 @@ class Path:
         arc = centre + w0[:, None] * e0 + w1[:, None] * e1
         pts = np.where(corner[source][:, None], arc, p)
         return Path(pts, closed=self._closed), source
+
+    def trimmed(self, start=0.0, end=0.0):
+        """This open path with ``start`` and ``end`` arc length removed from its ends.
+
+        Returns the new path and each new point's arc length on this path.
+        """
+        if self._closed:
+            raise InputError("trimmed: a closed path has no ends to trim")
+        lo, hi = float(start), self.length - float(end)
+        if not 0.0 <= lo < hi <= self.length:
+            raise GeometryError(f"cannot trim {start:g} and {end:g} off a path "
+                                f"{self.length:.6g} long; the pipe is too short")
+        arc = self.arc_length
+        tol = 2 * DUPLICATE_TOLERANCE * max(float(np.ptp(self._points, axis=0).max()), 1.0)
+        inner = (arc > lo + tol) & (arc < hi - tol)     # keep the cut points distinct
+        s = np.concatenate([[lo], arc[inner], [hi]])
+        pts = np.stack([np.interp(s, arc, self._points[:, c]) for c in range(3)], axis=1)
+        return Path(pts), s
 
     def reversed(self):
         return Path(self._points[::-1], closed=self._closed)
@@ -219,7 +233,7 @@ class Path:
         control = cls(points, closed=closed).points
         if closed:
             control = np.vstack([control, control[:1]])
-        chord = np.linalg.norm(np.diff(control, axis=0), axis=1)
+        chord = norm(np.diff(control, axis=0))
         u = np.concatenate([[0.0], np.cumsum(chord)])
         if closed:
             curve = CubicSpline(u, control, bc_type="periodic")
@@ -233,8 +247,10 @@ class Path:
         # a dense table of arc length and curvature drives the final placement
         dense_u = np.linspace(0.0, u[-1], 64 * len(control) + 1)
         d1, d2 = curve(dense_u, 1), curve(dense_u, 2)
-        speed = np.linalg.norm(d1, axis=1)
-        curvature = np.linalg.norm(np.cross(d1, d2), axis=1) / np.maximum(speed, 1e-300) ** 3
+        speed = norm(d1)
+        # a cusp (zero speed) has no curvature to resolve: sample it at the base density
+        curvature = np.divide(norm(cross(d1, d2)), speed ** 3,
+                              out=np.zeros_like(speed), where=speed > 1e-12 * speed.max())
         density = np.full_like(speed, 1.0 / step)                 # points per unit length
         if tolerance is not None:
             density = np.maximum(density, np.sqrt(curvature / (8.0 * tolerance)))

@@ -12,9 +12,10 @@ import numpy as np
 
 from . import clearance
 from ._validate import as_choice, as_int, as_positive
+from ._vec import cross, dot
 from .errors import GeometryError, InputError
 from .frames import FRAME_MODES, frames
-from .loft import band_faces, fan_faces
+from .loft import band_face_count, band_faces, fan_faces
 from .mesh import Mesh
 from .path import Path
 
@@ -59,6 +60,9 @@ class Pipe:
         Rotation-minimizing frames (default) or the source's ``OP x L`` rule.
     normal : (3,) array_like, optional
         Direction of the first ring's vertex 0.
+    end_normal : (3,) array_like, optional
+        Direction the last ring's vertex 0 must take (up to the ring's symmetry, see
+        :attr:`seam_shift`), e.g. to meet a flange; the twist is spread evenly.
     corners : {"miter", "round"}
         Polyline corners as miter joints (full radius through the bend), or rounded
         with arcs of ``bend_radius``.
@@ -74,7 +78,8 @@ class Pipe:
     """
 
     def __init__(self, path, radius, sides=None, *, caps="flat", envelope=False, tolerance=None,
-                 frame="rmf", normal=None, corners="miter", bend_radius=None, miter_limit=4.0,
+                 frame="rmf", normal=None, end_normal=None, corners="miter", bend_radius=None,
+                 miter_limit=4.0,
                  cap_segments=None, repair=False):
         source = path if isinstance(path, Path) else Path(path)
         radii = as_positive(radius, "radius", count=len(source))
@@ -84,6 +89,7 @@ class Pipe:
         self.envelope = bool(envelope)
         self.repair = bool(repair)
         self.normal = normal
+        self.end_normal = end_normal
         self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
         if self.miter_limit < 1.0:
             raise InputError(f"miter_limit: must be >= 1, got {miter_limit}")
@@ -107,6 +113,10 @@ class Pipe:
             radii = radii[index]
         else:
             self.bend_radius = None
+        self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
+                              frame=self.frame, normal=normal, end_normal=end_normal,
+                              miter_limit=self.miter_limit, cap_segments=self.cap_segments,
+                              repair=self.repair)
         self.path = source
         self.radii = np.array(radii, dtype=np.float64)
         self.radii.flags.writeable = False
@@ -114,6 +124,12 @@ class Pipe:
     def __repr__(self):
         return (f"<cadpipe.Pipe {self.sides} sides, {len(self.path)} rings, "
                 f"radius {self.radii.min():.6g}..{self.radii.max():.6g}>")
+
+    def trimmed(self, start=0.0, end=0.0):
+        """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
+        path, arc = self.path.trimmed(start, end)
+        radii = np.interp(arc, self.path.arc_length, self.radii)
+        return Pipe(path, radii, **self._settings)
 
     @property
     def closed(self):
@@ -128,7 +144,7 @@ class Pipe:
     def _frames(self):
         p = self.path
         return frames(p.points, p.tangents, self.frame, closed=p.closed, normal=self.normal,
-                      symmetry=2 * np.pi / self.sides)
+                      end_normal=self.end_normal, symmetry=2 * np.pi / self.sides)
 
     @property
     def normals(self):
@@ -137,11 +153,12 @@ class Pipe:
 
     @property
     def binormals(self):
-        return np.cross(self.path.tangents, self.normals)
+        return cross(self.path.tangents, self.normals)
 
     @property
     def seam_shift(self):
-        """Closed pipes: the last ring's vertex k joins the first ring's vertex k + shift."""
+        """The last ring's vertex k meets vertex k + shift of the ring it must match: the
+        first ring of a closed pipe, or the ring that ``end_normal`` describes."""
         return self._frames[1]
 
     @cached_property
@@ -159,17 +176,22 @@ class Pipe:
         n, b = self.normals, self.binormals
         m = self.path.bend_directions
         extra = (self.miter_stretch - 1.0)[:, None]
-        n = n + extra * np.einsum("ij,ij->i", n, m)[:, None] * m
-        b = b + extra * np.einsum("ij,ij->i", b, m)[:, None] * m
+        n = n + extra * dot(n, m)[:, None] * m
+        b = b + extra * dot(b, m)[:, None] * m
         r = self.ring_radii[:, None]
         return np.stack([n * r, b * r], axis=1)
 
-    def rings(self):
-        """(N, sides, 3) ring vertices, counter-clockwise about the tangent."""
-        a = 2 * np.pi * np.arange(self.sides) / self.sides
-        axes = self.ring_axes()
-        return (self.path.points[:, None, :] + np.cos(a)[None, :, None] * axes[:, None, 0]
-                + np.sin(a)[None, :, None] * axes[:, None, 1])
+    def rings(self, sides=None):
+        """(N, sides, 3) ring vertices, counter-clockwise about the tangent.
+
+        ``sides`` defaults to the pipe's own; a splice samples a transition's rings at
+        another size on the same frames.
+        """
+        sides = self.sides if sides is None else sides
+        a = 2 * np.pi * np.arange(sides) / sides
+        # [cos a, sin a, 1] @ [axis_cos; axis_sin; centre]: one batched product per ring
+        basis = np.stack([np.cos(a), np.sin(a), np.ones_like(a)], axis=1)
+        return basis @ np.concatenate([self.ring_axes(), self.path.points[:, None, :]], axis=1)
 
     def attributes(self):
         """The parameters that made this pipe, for exporters' metadata."""
@@ -203,7 +225,7 @@ class Pipe:
                                     + "; smooth the path, reduce the radius, or pass repair=True")
             return self._repaired_mesh()
         vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-        return Mesh(vertices, faces, attributes=self.attributes())
+        return Mesh.trusted(vertices, faces, attributes=self.attributes())
 
     def surface(self, *, cap_start=True, cap_end=True):
         """Vertices and faces of the side surface plus the requested end caps.
@@ -221,21 +243,31 @@ class Pipe:
         no_cap = (np.empty((0, n, 3)), None)
         start_rings, start_pole = self._cap_rings(0, -1) if cap_start else no_cap
         end_rings, end_pole = self._cap_rings(-1, +1) if cap_end else no_cap
-        all_rings = np.concatenate([start_rings[::-1], rings, end_rings])
-        vertices = [all_rings.reshape(-1, 3)]
-        faces = [band_faces(len(all_rings), n)]
-        count = len(all_rings) * n
-        ends = ((cap_start, start_pole, 0, False), (cap_end, end_pole, count - n, True))
-        for wanted, pole, ring, at_end in ends:
-            if not wanted:
-                continue
-            if pole is None:
-                faces.append(fan_faces(ring, n, at_end=at_end))
-            else:
-                vertices.append(pole[None])
-                faces.append(fan_faces(ring, n, apex=count, at_end=at_end))
-                count += 1
-        return np.concatenate(vertices), np.concatenate(faces)
+        if len(start_rings) or len(end_rings):
+            rings = np.concatenate([start_rings[::-1], rings, end_rings])
+        poles = [p for p in (start_pole, end_pole) if p is not None]
+        count = len(rings) * n
+        vertices = rings.reshape(-1, 3)
+        if poles:
+            vertices = np.concatenate([vertices, poles])
+        ends = [(pole, ring, at_end) for wanted, pole, ring, at_end in
+                ((cap_start, start_pole, 0, False), (cap_end, end_pole, count - n, True)) if wanted]
+        n_band = band_face_count(len(rings), n)
+        cap_counts = [n if pole is not None else n - 2 for pole, _, _ in ends]
+        faces = np.empty((n_band + sum(cap_counts), 3), np.int64)
+        band_faces(len(rings), n, out=faces[:n_band])
+        row, apex = n_band, count
+        for (pole, ring, at_end), size in zip(ends, cap_counts):
+            faces[row:row + size] = fan_faces(ring, n, apex=None if pole is None else apex,
+                                              at_end=at_end)
+            apex += pole is not None
+            row += size
+        return vertices, faces
+
+    @property
+    def cap_ring_count(self):
+        """Rings a cap adds before its pole (0 for flat caps)."""
+        return self.cap_segments - 1 if self.caps == "round" else 0
 
     def _cap_rings(self, index, sign):
         """A flat cap: ``(empty, None)``. A round cap: its latitude rings past the end
@@ -255,16 +287,20 @@ class Pipe:
                  + (radius * np.sin(lat))[:, None, None] * tangent)
         return rings, centre + radius * tangent
 
-    def units(self):
+    def units(self, overlap=0.0):
         """Convex pieces whose union is the tube: each path unit, plus round caps.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
-        unit); a round cap is its rings and pole. Used for repair and collision.
+        unit); a round cap is its end ring, cap rings and pole. ``overlap`` pushes
+        each unit's rings that far outward along its segment, so that neighbouring
+        units overlap instead of merely touching (booleans treat touching solids as
+        apart).
         """
         rings = self.rings()
-        nxt = np.roll(np.arange(len(rings)), -1) if self.closed else np.arange(1, len(rings))
-        pieces = [np.concatenate([rings[i], rings[j]]) for i, j in
-                  zip(range(len(nxt)), nxt)]
+        cur = np.arange(len(self.path.segments))
+        nxt = (cur + 1) % len(rings)
+        shift = overlap * self.path.directions[:, None, :]
+        pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
         if not self.closed and self.caps == "round":
             for index, sign in ((0, -1), (-1, 1)):
                 cap_rings, pole = self._cap_rings(index, sign)
@@ -275,6 +311,7 @@ class Pipe:
         """Union of the convex units through manifold3d: valid even where the tube folds."""
         import manifold3d
 
-        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units()]
+        overlap = 1e-6 * float(self.ring_radii.max())
+        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units(overlap)]
         solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
         return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})

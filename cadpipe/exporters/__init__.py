@@ -48,6 +48,22 @@ def export(obj, path, **options):
     return FilePath(path)
 
 
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def ensure_folder(folder):
+    """Create ``folder`` (and parents) or raise :class:`ExportError` saying why not."""
+    folder = FilePath(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror})") from None
+    return folder
+
+
 @contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
@@ -64,6 +80,7 @@ def atomic_path(path):
     os.close(fd)
     try:
         yield FilePath(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())      # mkstemp's 0600 is for the temporary only
         os.replace(tmp, path)
     except OSError as exc:
         raise ExportError(f"{path}: writing failed ({exc}); nothing was written") from None
