@@ -9,8 +9,9 @@ from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe
 from .splice import splice
+from .collision import CollisionWorld
 
 __version__ = "0.1.0"
 
-__all__ = ["CadpipeError", "ExportError", "GeometryError", "InputError", "Mesh", "MeshError",
+__all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError", "Mesh", "MeshError",
            "Path", "Pipe", "SpecError", "__version__", "splice"]

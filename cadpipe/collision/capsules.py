@@ -16,7 +16,6 @@ A chain is the union of its units. Everything is vectorized over units, unit
 pairs and query points: no triangle is ever looked at.
 """
 
-from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -157,6 +156,10 @@ def unit_pair_gap(a0, a1, ra0, ra1, b0, b1, rb0, rb1):
     """
     u, v = a1 - a0, b1 - b0
     dr, drho = ra1 - ra0, rb1 - rb0
+    if not (np.any(dr) or np.any(drho)):     # capsules: the axes' closest points decide
+        s, t = _segment_closest(a0, u, b0, v)
+        diff = a0 + s[..., None] * u - b0 - t[..., None] * v
+        return np.linalg.norm(diff, axis=-1) - ra0 - rb0, s, t
 
     def gap(s, t):
         diff = a0 + s[..., None] * u - b0 - t[..., None] * v
@@ -172,11 +175,10 @@ def unit_pair_gap(a0, a1, ra0, ra1, b0, b1, rb0, rb1):
         s = _edge_minimum(a0 - b0 - t_fixed[..., None] * v, u, dr)
         candidates.append((s, t_fixed))
     candidates.append(_segment_closest(a0, u, b0, v))
-    if np.any(dr != 0) or np.any(drho != 0):
-        for sign in (1.0, -1.0):
-            s, t = _interior_stationary(a0, u, b0, v, dr, drho, sign)
-            found = ~np.isnan(s)
-            candidates.append((np.where(found, s, 0.0), np.where(found, t, 0.0)))
+    for sign in (1.0, -1.0):
+        s, t = _interior_stationary(a0, u, b0, v, dr, drho, sign)
+        found = ~np.isnan(s)
+        candidates.append((np.where(found, s, 0.0), np.where(found, t, 0.0)))
     s_all = np.stack([c[0] for c in candidates])
     t_all = np.stack([c[1] for c in candidates])
     values = gap(s_all, t_all)
@@ -186,7 +188,6 @@ def unit_pair_gap(a0, a1, ra0, ra1, b0, b1, rb0, rb1):
 
 
 # -- chains ---------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
 class Chain:
     """A union of round-cone units: ``centers[i] -> centers[j]`` for each edge.
 
@@ -200,9 +201,12 @@ class Chain:
         The units, as index pairs into ``centers`` (``(i, i)`` is a lone ball).
     """
 
-    centers: np.ndarray
-    radii: np.ndarray
-    edges: np.ndarray
+    def __init__(self, centers, radii, edges, blocks=None):
+        self.centers, self.radii, self.edges = centers, radii, edges
+        self.starts, self.ends = centers[edges[:, 0]], centers[edges[:, 1]]
+        self.start_radii, self.end_radii = radii[edges[:, 0]], radii[edges[:, 1]]
+        if blocks is not None:
+            self.__dict__["blocks"] = blocks
 
     @classmethod
     def along(cls, points, radii, closed=False):
@@ -217,30 +221,11 @@ class Chain:
         return cls(points, np.broadcast_to(np.asarray(radii, np.float64), (n,)).copy(), edges)
 
     def moved(self, matrix):
-        """The chain with its centres moved by a rigid 4x4 matrix."""
-        return Chain(self.centers @ matrix[:3, :3].T + matrix[:3, 3], self.radii, self.edges)
-
-    # per-unit arrays
-    @cached_property
-    def starts(self):
-        return self.centers[self.edges[:, 0]]
-
-    @cached_property
-    def ends(self):
-        return self.centers[self.edges[:, 1]]
-
-    @cached_property
-    def start_radii(self):
-        return self.radii[self.edges[:, 0]]
-
-    @cached_property
-    def end_radii(self):
-        return self.radii[self.edges[:, 1]]
-
-    @cached_property
-    def tapered(self):
-        """Whether any unit's end radii differ (a cone rather than a capsule)."""
-        return bool(np.any(self.start_radii != self.end_radii))
+        """The chain moved by a rigid 4x4 matrix (its block spheres move along)."""
+        rot, shift = matrix[:3, :3], matrix[:3, 3]
+        centre, radius, index = self.blocks
+        return Chain(self.centers @ rot.T + shift, self.radii, self.edges,
+                     (centre @ rot.T + shift, radius, index))
 
     @cached_property
     def unit_bounds(self):

@@ -38,8 +38,8 @@ def as_pose(transform, name):
     if not np.isfinite(m).all():
         raise InputError(f"{name}: transform has NaN or infinite entries; pass a finite matrix")
     rot = m[:3, :3]
-    if (not np.allclose(m[3], [0, 0, 0, 1], atol=1e-9)
-            or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6) or np.linalg.det(rot) <= 0):
+    if (np.abs(m[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-9
+            or np.abs(rot.T @ rot - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) <= 0):
         raise InputError(f"{name}: transform must be rigid (a rotation and a translation); "
                          "scale or mirror the mesh itself instead")
     return m
