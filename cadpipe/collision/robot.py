@@ -173,6 +173,8 @@ class Robot:
             parts = [_geometry(c, path.parent, link.name) for c in link.collisions]
             if parts:
                 meshes[link.name] = _union(parts, link.name)
+        if not meshes:
+            raise SpecError(f"{path}: no link has collision geometry; nothing to check")
         allowed = srdf_disabled_pairs(srdf) if srdf is not None else ()
         return cls(urdf.robot.name, joints, meshes, allowed)
 
