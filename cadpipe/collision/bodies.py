@@ -116,15 +116,42 @@ class Body:
         return bvh
 
     @cached_property
-    def fcl_units(self):
-        """FCL capsules (or spheres) of the chain's units, one per unit, each the
-        capsule of the unit's larger end radius (exact for untapered units)."""
+    def fcl_anchor(self):
+        """An FCL object of the BVH that stays at the identity: pairs are checked in
+        this body's frame."""
         import fcl
+
+        return fcl.CollisionObject(self.fcl_geometry, fcl.Transform())
+
+    @cached_property
+    def fcl_mover(self):
+        """A second FCL object of the BVH, moved to the other body's relative pose."""
+        import fcl
+
+        return fcl.CollisionObject(self.fcl_geometry, fcl.Transform())
+
+    @cached_property
+    def pseudo_normals(self):
+        """See :func:`cadpipe.collision.narrow.pseudo_normals` (meshes only)."""
+        from .narrow import pseudo_normals
+
+        return pseudo_normals(self.mesh)
+
+    @cached_property
+    def fcl_units(self):
+        """FCL objects of the chain's units, one per unit: each the capsule (or ball)
+        of the unit's larger end radius, exact for untapered units; and their
+        poses in the body's frame (FCL's capsule is centred on its z axis)."""
+        import fcl
+
+        from .narrow import unit_poses
 
         chain = self.chain
         length = np.linalg.norm(chain.ends - chain.starts, axis=1)
         radius = np.maximum(chain.start_radii, chain.end_radii)
-        return [fcl.Capsule(r, h) if h > 0 else fcl.Sphere(r) for r, h in zip(radius, length)]
+        shapes = [fcl.Capsule(r, h) if h > 0 else fcl.Sphere(r) for r, h in zip(radius, length)]
+        return [fcl.CollisionObject(g, fcl.Transform()) for g in shapes], \
+            unit_poses(chain.starts, chain.ends)
 
 
 def as_body(obj, name):

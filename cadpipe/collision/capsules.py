@@ -228,6 +228,13 @@ class Chain:
                      (centre @ rot.T + shift, radius, index))
 
     @cached_property
+    def unit_spheres(self):
+        """(U, 3) centre and (U,) radius of a ball around each unit."""
+        centre = 0.5 * (self.starts + self.ends)
+        half = 0.5 * np.linalg.norm(self.ends - self.starts, axis=1)
+        return centre, half + np.maximum(self.start_radii, self.end_radii)
+
+    @cached_property
     def unit_bounds(self):
         """(U, 2, 3) axis-aligned box of each unit."""
         r0, r1 = self.start_radii[:, None], self.end_radii[:, None]

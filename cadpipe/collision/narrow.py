@@ -54,25 +54,90 @@ def winding_numbers(triangles, points):
     return out
 
 
+def pseudo_normals(mesh):
+    """Angle-weighted pseudo-normals of a closed mesh (Baerentzen and Aanaes, 2005):
+    per face, per vertex, and per undirected edge (sorted ``i * V + j`` keys).
+
+    The sign of ``(p - q) . n`` at the nearest surface point ``q``, with ``n`` the
+    pseudo-normal of the feature ``q`` lies on, tells inside from outside.
+    """
+    tri = mesh.triangles
+    normals = mesh.face_normals
+    corner = np.zeros((len(tri), 3))
+    for k in range(3):
+        e1 = tri[:, (k + 1) % 3] - tri[:, k]
+        e2 = tri[:, (k + 2) % 3] - tri[:, k]
+        cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(
+            np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300)
+        corner[:, k] = np.arccos(np.clip(cos, -1.0, 1.0))
+    vertex = np.zeros((len(mesh.vertices), 3))
+    np.add.at(vertex, mesh.faces.ravel(), (corner[:, :, None] * normals[:, None]).reshape(-1, 3))
+    f = mesh.faces
+    pairs = np.sort(np.stack([f, np.roll(f, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    keys, inverse = np.unique(pairs[:, 0] * len(mesh.vertices) + pairs[:, 1],
+                              return_inverse=True)
+    edge = np.zeros((len(keys), 3))
+    np.add.at(edge, inverse, np.repeat(normals, 3, axis=0))
+    return normals, vertex, keys, edge
+
+
 def mesh_contains(body, points):
-    """Which ``(P, 3)`` points (in the mesh's frame) lie inside the closed mesh body."""
+    """Which ``(P, 3)`` points (in the mesh's frame) lie inside the closed mesh body.
+
+    For each point FCL finds the nearest triangle (a BVH query); the side is the
+    sign against the pseudo-normal of the face, edge or vertex the nearest point
+    lies on. Where that sign is too close to call, the winding number decides.
+    """
+    import fcl
+
     points = np.asarray(points, np.float64)
     lo, hi = body.mesh.bounds
     inside = np.all((points >= lo) & (points <= hi), axis=1)
-    if inside.any():
-        inside[inside] = winding_numbers(body.mesh.triangles, points[inside]) > INSIDE
+    if not inside.any():
+        return inside
+    faces, vertices = body.mesh.faces, body.mesh.vertices
+    normals, vertex, keys, edge = body.pseudo_normals
+    mesh_object = body.fcl_anchor
+    probe = fcl.CollisionObject(fcl.Sphere(0.0), fcl.Transform())
+    request = fcl.DistanceRequest(enable_nearest_points=True)
+    unsure = []
+    for k in np.flatnonzero(inside):
+        probe.setTransform(fcl.Transform(points[k]))
+        result = fcl.DistanceResult()
+        fcl.distance(mesh_object, probe, request, result)
+        q, t = np.asarray(result.nearest_points[0]), result.b1
+        corners = vertices[faces[t]]
+        bary = _barycentric(q, corners)
+        small = bary < 1e-7
+        if small.sum() >= 2:                      # nearest to a vertex
+            n = vertex[faces[t, int(np.argmax(bary))]]
+        elif small.any():                         # nearest to an edge
+            i, j = np.sort(faces[t][~small])
+            n = edge[np.searchsorted(keys, i * len(vertices) + j)]
+        else:
+            n = normals[t]
+        offset = points[k] - q
+        side = float(np.dot(offset, n))
+        if abs(side) <= 1e-9 * np.linalg.norm(offset) * np.linalg.norm(n):
+            unsure.append(k)
+        inside[k] = side < 0
+    if unsure:
+        inside[unsure] = winding_numbers(body.mesh.triangles, points[unsure]) > INSIDE
     return inside
 
 
-def _fcl_object(geometry, pose=None):
-    import fcl
+def _barycentric(q, corners):
+    a, b, c = corners
+    v0, v1, v2 = b - a, c - a, q - a
+    d00, d01, d11 = v0 @ v0, v0 @ v1, v1 @ v1
+    d20, d21 = v2 @ v0, v2 @ v1
+    den = d00 * d11 - d01 * d01
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.array([1.0 - v - w, v, w])
 
-    if pose is None:
-        return fcl.CollisionObject(geometry, fcl.Transform())
-    return fcl.CollisionObject(geometry, fcl.Transform(pose[:3, :3], pose[:3, 3]))
 
-
-def _unit_poses(starts, ends):
+def unit_poses(starts, ends):
     """4x4 poses placing FCL's z-aligned, centred capsule on each unit."""
     axis = ends - starts
     length = np.linalg.norm(axis, axis=1, keepdims=True)
@@ -92,12 +157,6 @@ def _unit_poses(starts, ends):
     return poses
 
 
-def _units_near(chain, lo, hi):
-    """Units whose boxes overlap the box ``[lo, hi]``."""
-    ub = chain.unit_bounds
-    return np.flatnonzero(np.all((ub[:, 0] <= hi) & (ub[:, 1] >= lo), axis=1))
-
-
 # -- yes / no ---------------------------------------------------------------------
 def collide(body_a, pose_a, body_b, pose_b):
     """``(touching, decided_by)`` for two placed bodies; decided_by is
@@ -113,12 +172,19 @@ def collide(body_a, pose_a, body_b, pose_b):
     return _mesh_chain(body_a, body_b, rel)
 
 
+def _placed(body, pose):
+    """The body's movable FCL object, set to ``pose``."""
+    import fcl
+
+    body.fcl_mover.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+    return body.fcl_mover
+
+
 def _mesh_mesh(body_a, body_b, rel):
     import fcl
 
     request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
-    if fcl.collide(_fcl_object(body_a.fcl_geometry), _fcl_object(body_b.fcl_geometry, rel),
-                   request, fcl.CollisionResult()):
+    if fcl.collide(body_a.fcl_anchor, _placed(body_b, rel), request, fcl.CollisionResult()):
         return True, "fcl"
     if mesh_contains(body_a, _apply(rel, body_b.probes)).any():
         return True, "containment"
@@ -128,20 +194,29 @@ def _mesh_mesh(body_a, body_b, rel):
     return False, "fcl"
 
 
+def _units_at(chain_body, rel, units):
+    """The chain's FCL unit objects ``units``, moved by ``rel``."""
+    import fcl
+
+    objects, local = chain_body.fcl_units
+    poses = rel @ local[units]
+    for unit, pose in zip(units, poses):
+        objects[unit].setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        yield unit, objects[unit]
+
+
 def _mesh_chain(mesh_body, chain_body, rel):
     import fcl
 
-    chain = chain_body.chain.moved(rel)
-    near = _units_near(chain, *mesh_body.mesh.bounds)
-    if near.size:
-        mesh_object = _fcl_object(mesh_body.fcl_geometry)
-        request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
-        poses = _unit_poses(chain.starts[near], chain.ends[near])
-        for unit, pose in zip(near, poses):
-            if fcl.collide(mesh_object, _fcl_object(chain_body.fcl_units[unit], pose), request,
-                           fcl.CollisionResult()):
-                return True, "fcl"
-    if mesh_contains(mesh_body, chain.centers[:1]).any():
+    centre, radius = chain_body.chain.unit_spheres
+    lo, hi = mesh_body.mesh.bounds
+    moved = _apply(rel, centre)
+    near = np.flatnonzero(np.linalg.norm(moved - np.clip(moved, lo, hi), axis=1) <= radius)
+    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
+    for _, unit in _units_at(chain_body, rel, near):
+        if fcl.collide(mesh_body.fcl_anchor, unit, request, fcl.CollisionResult()):
+            return True, "fcl"
+    if mesh_contains(mesh_body, _apply(rel, chain_body.chain.centers[:1])).any():
         return True, "containment"
     return False, "fcl"
 
@@ -185,7 +260,7 @@ def _fcl_distance(object_a, object_b):
 
 def _mesh_mesh_distance(body_a, body_b, rel):
     """FCL's BVH distance; both nearest points in a's frame."""
-    return _fcl_distance(_fcl_object(body_a.fcl_geometry), _fcl_object(body_b.fcl_geometry, rel))
+    return _fcl_distance(body_a.fcl_anchor, _placed(body_b, rel))
 
 
 def _mesh_chain_distance(mesh_body, chain_body, rel):
@@ -200,13 +275,11 @@ def _mesh_chain_distance(mesh_body, chain_body, rel):
     ub = chain.unit_bounds
     lower = np.linalg.norm(np.maximum(np.maximum(lo - ub[:, 1], ub[:, 0] - hi), 0.0), axis=1)
     order = np.argsort(lower, kind="stable")
-    poses = _unit_poses(chain.starts, chain.ends)
-    mesh_object = _fcl_object(mesh_body.fcl_geometry)
     best, best_unit = (np.inf, None, None), None
-    for unit in order:
+    for unit, obj in _units_at(chain_body, rel, order):
         if lower[unit] >= best[0]:
             break
-        found = _fcl_distance(mesh_object, _fcl_object(chain_body.fcl_units[unit], poses[unit]))
+        found = _fcl_distance(mesh_body.fcl_anchor, obj)
         if found[0] < best[0]:
             best, best_unit = found, unit
         if best[0] <= 0:

@@ -4,8 +4,8 @@
 (a robot's links) are self-collision pairs and are decided first; with
 ``stop_after_self=True`` a self-collision ends the check, as the source does.
 Every pair not allowed then goes down the same funnel, each stage able to prove
-"apart": sweep-and-prune on AABBs, OBBs, 18-DOPs, optionally the source's
-separation certificate, and finally the exact narrow phase. The report records
+"apart", cheapest first: sweep-and-prune on AABBs, 18-DOPs, OBBs, optionally
+the source's separation certificate, and finally the exact narrow phase. The report records
 which stage decided each pair.
 """
 
@@ -19,7 +19,7 @@ from . import bounds, narrow
 from .bodies import as_body
 
 #: stages that can decide a pair, in the order a pair meets them
-STAGES = ("allowed", "aabb", "obb", "kdop", "certificate", "fcl", "containment", "analytic",
+STAGES = ("allowed", "aabb", "kdop", "obb", "certificate", "fcl", "containment", "analytic",
           "not checked")
 _CODE = {name: i for i, name in enumerate(STAGES)}
 _NARROW = -1                     # a pair the broad phase could not decide
@@ -256,13 +256,13 @@ class CollisionWorld:
                 buckets.setdefault(size, []).append(i)
             groups = []
             for size, members in sorted(buckets.items()):
-                points = np.empty((len(members), size, 3))
-                pad = np.empty((len(members), size, 1))
+                points = np.empty((len(members), 3, size))      # coordinates, then points:
+                pad = np.empty((len(members), 1, size))         # reductions run along rows
                 for row, i in enumerate(members):
                     p, r = self._bodies[i].hull
                     fill = np.r_[np.arange(len(p)), np.zeros(size - len(p), np.int64)]
-                    points[row], pad[row, :, 0] = p[fill], r[fill]
-                groups.append((np.array(members), points, pad))
+                    points[row], pad[row, 0] = p[fill].T, r[fill]
+                groups.append((np.array(members), points, pad if pad.any() else None))
             obbs = [body.obb for body in self._bodies]
             self._packed = {
                 "groups": groups,
@@ -280,17 +280,19 @@ class CollisionWorld:
         if not self._stale.any():
             return b
         rot, shift = self._poses[:, :3, :3], self._poses[:, :3, 3]
-        directions = bounds.KDOP_DIRECTIONS.T
         for members, points, pad in b["groups"]:
             moved = self._stale[members]
             if not moved.any():
                 continue
             ids = members[moved]
             # project the local points on the world directions turned into each frame
-            proj = points[moved] @ (np.swapaxes(rot[ids], 1, 2) @ directions)
-            offset = (shift[ids] @ directions)[:, None, :]
-            b["kdop"][ids, 0] = (proj - pad[moved]).min(axis=1) + offset[:, 0]
-            b["kdop"][ids, 1] = (proj + pad[moved]).max(axis=1) + offset[:, 0]
+            proj = (bounds.KDOP_DIRECTIONS @ rot[ids]) @ points[moved]       # (k, 9, size)
+            offset = shift[ids] @ bounds.KDOP_DIRECTIONS.T
+            if pad is None:
+                low, high = proj.min(axis=2), proj.max(axis=2)
+            else:
+                low, high = (proj - pad[moved]).min(axis=2), (proj + pad[moved]).max(axis=2)
+            b["kdop"][ids, 0], b["kdop"][ids, 1] = low + offset, high + offset
         stale = np.flatnonzero(self._stale)
         b["world_centre"][stale] = (rot[stale] @ b["centre"][stale, :, None])[:, :, 0] \
             + shift[stale]
@@ -305,20 +307,18 @@ class CollisionWorld:
 
     # -- checks ---------------------------------------------------------------
     def _pairs(self):
-        """Every pair (i < j), whether it is a self pair, the allowed mask, and the
-        pair index of ``(i, j)`` as ``i * n + j``; cached until objects change."""
+        """Every pair (i < j) in ``np.triu_indices`` order, whether it is a self pair,
+        and the allowed mask; cached until objects change."""
         if self._pair_table is None:
             n = len(self._names)
             first, second = np.triu_indices(n, k=1)
             ids = {g: k for k, g in enumerate(dict.fromkeys(self._groups))}
             groups = np.array([-1 if g is None else ids[g] for g in self._groups], np.int64)
             same = (groups[first] == groups[second]) & (groups[first] != -1)
-            lookup = np.full(n * n, -1, np.int64)
-            lookup[first * n + second] = np.arange(len(first))
             allowed = np.zeros(len(first), bool)
             for i, j in self._allowed:
-                allowed[lookup[i * n + j]] = True
-            self._pair_table = first, second, same, allowed, lookup
+                allowed[(i * (2 * n - i - 1)) // 2 + j - i - 1] = True
+            self._pair_table = first, second, same, allowed
         return self._pair_table
 
     def check(self, stop_after_self=False, certify=False):
@@ -336,27 +336,26 @@ class CollisionWorld:
             ``"certificate"`` and carries the certificate.
         """
         n = len(self._names)
-        first, second, same, allowed, lookup = self._pairs()
+        first, second, same, allowed = self._pairs()
         codes = np.full(len(first), _CODE["aabb"], np.int8)
         codes[allowed] = _CODE["allowed"]
         colliding = np.zeros(len(first), bool)
         certificates = {}
         if n >= 2:
             b = self._refresh_bounds()
-            hit = bounds.overlapping_pairs(b["kdop"][:, 0, :3], b["kdop"][:, 1, :3])
-            k = lookup[hit[:, 0] * n + hit[:, 1]]
-            k = k[~allowed[k]]
+            k = np.flatnonzero(bounds.overlapping_pairs(b["kdop"][:, 0, :3], b["kdop"][:, 1, :3],
+                                                        first, second) & ~allowed)
             i, j = first[k], second[k]
-            obb = bounds.obb_overlap(b["world_centre"][i], b["world_axes"][i], b["half"][i],
-                                     b["world_centre"][j], b["world_axes"][j], b["half"][j])
-            codes[k[~obb]] = _CODE["obb"]
-            k, i, j = k[obb], i[obb], j[obb]
             dop = bounds.boxes_overlap(b["kdop"][i, 0], b["kdop"][i, 1], b["kdop"][j, 0],
                                        b["kdop"][j, 1])
             codes[k[~dop]] = _CODE["kdop"]
-            narrow_pairs = k[dop]
-            order = narrow_pairs[np.lexsort((second[narrow_pairs], first[narrow_pairs],
-                                             ~same[narrow_pairs]))]
+            k, i, j = k[dop], i[dop], j[dop]
+            if k.size:
+                obb = bounds.obb_overlap(b["world_centre"][i], b["world_axes"][i], b["half"][i],
+                                         b["world_centre"][j], b["world_axes"][j], b["half"][j])
+                codes[k[~obb]] = _CODE["obb"]
+                k = k[obb]
+            order = k[np.lexsort((second[k], first[k], ~same[k]))]
             stopped = False
             for pair in order:
                 if stop_after_self and not same[pair] and colliding[same].any():
