@@ -13,5 +13,5 @@ from .collision import CollisionWorld
 
 __version__ = "0.1.0"
 
-__all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError", "Mesh", "MeshError",
-           "Path", "Pipe", "SpecError", "__version__", "splice"]
+__all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError",
+           "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "splice"]

@@ -4,7 +4,6 @@ verified, and never wrong (manifold3d finds zero intersection volume)."""
 from xml.etree import ElementTree
 
 import numpy as np
-import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 

@@ -62,21 +62,18 @@ def round_cone_distance(points, a, b, ra, rb):
 
 
 def chain_signed_distance(points, a, b, ra, rb):
-    """Signed distance of ``(P, 3)`` points to a union of units, and the nearest unit.
+    """Signed distance of ``(P, 3)`` points to a union of units.
 
     Exact outside; inside, the depth within the deepest unit (never more than the
     true depth), so the sign is exact everywhere. Batched to bound memory.
     """
     points = np.asarray(points, np.float64)
     out = np.empty(len(points))
-    nearest = np.empty(len(points), np.int64)
     step = max(1, BATCH // max(len(a), 1))
     for start in range(0, len(points), step):
-        sd = round_cone_distance(points[start:start + step, None], a, b, ra, rb)
-        nearest[start:start + step] = np.argmin(sd, axis=1)
-        out[start:start + step] = np.take_along_axis(sd, nearest[start:start + step, None],
-                                                     axis=1)[:, 0]
-    return out, nearest
+        out[start:start + step] = round_cone_distance(points[start:start + step, None], a, b,
+                                                      ra, rb).min(axis=1)
+    return out
 
 
 # -- unit against unit ------------------------------------------------------------
@@ -267,7 +264,7 @@ class Chain:
         """Signed distance of ``(P, 3)`` points (negative inside); see
         :func:`chain_signed_distance`."""
         return chain_signed_distance(points, self.starts, self.ends, self.start_radii,
-                                     self.end_radii)[0]
+                                     self.end_radii)
 
     def gap(self, other, stop_below=None):
         """Smallest unit-pair gap to ``other`` and the two nearest surface points.

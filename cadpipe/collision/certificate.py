@@ -78,8 +78,6 @@ class Certificate:
         Each object's AABB projected to the plane (lower, upper corner).
     chain : (K, 2) array
         The separating polyline from ``p_start`` to ``p_end`` (empty for "boxes").
-    arcs : ((M, 2) array, (M, 2) array)
-        ``R``'s boundary from ``p_end`` back to ``p_start`` on A's side and on B's.
     regions : (list, list)
         Each object's projected part inside ``O`` as polygon rings (margin included).
     """
@@ -90,7 +88,6 @@ class Certificate:
     rectangle: np.ndarray
     boxes: np.ndarray
     chain: np.ndarray
-    arcs: tuple
     regions: tuple
 
     def verify(self):
@@ -290,15 +287,13 @@ def _touches(boundary, rings, tol):
 
 
 def _endpoints(boundary, regions, crossings, tol):
-    """Where the chain may start and end, and which arc is A's side.
+    """Where the chain may start and end.
 
     The source takes the two box crossings. A chain can only end where neither
     object touches R's boundary, so the touched stretches must form one run per
     object around the boundary; each crossing is kept if it lies in a gap
     between the runs, else the gap's midpoint is used. Returns
-    ``(p_start, p_end, a_first)`` (``a_first``: A's side is the arc from
-    p_end counter-clockwise to p_start), or None if no single chain can split
-    the touches.
+    ``(p_start, p_end)``, or None if no single chain can split the touches.
     """
     marks = sorted((lo, hi, label) for label, rings in enumerate(regions)
                    for lo, hi in _touches(boundary, rings, tol))
@@ -307,15 +302,14 @@ def _endpoints(boundary, regions, crossings, tol):
     crossing_at = boundary.position(crossings)
     if changes == 0:
         if not marks:                         # nothing touches: the crossings will do
-            return crossings[0], crossings[1], None
+            return crossings[0], crossings[1]
         # one object touches: leave its run through the widest free stretch
         starts = np.array([m[0] for m in marks])
         reach = np.maximum.accumulate([m[1] for m in marks])
         gaps = np.append(starts[1:], starts[0] + boundary.length) - reach
         k = int(np.argmax(gaps))
         g0, width = reach[k], gaps[k]
-        ends = [boundary.point(g0 + 0.25 * width), boundary.point(g0 + 0.75 * width)]
-        return ends[0], ends[1], labels[0] == 0
+        return boundary.point(g0 + 0.25 * width), boundary.point(g0 + 0.75 * width)
     if changes != 2:
         return None
     first_b = next(k for k in range(len(marks)) if labels[k] == 1 and labels[k - 1] == 0)
@@ -326,8 +320,7 @@ def _endpoints(boundary, regions, crossings, tol):
         g1 = marks[k][0] + (boundary.length if marks[k][0] < g0 else 0.0)
         inside = [c for c in crossing_at if g0 < c < g1 or g0 < c + boundary.length < g1]
         ends.append(boundary.point(inside[0] if inside else 0.5 * (g0 + g1)))
-    # counter-clockwise from the second end (before A's run) to the first: A's run
-    return ends[0], ends[1], True
+    return ends[0], ends[1]
 
 
 def _rotate(vector, angles):
@@ -456,7 +449,7 @@ def find_certificate(body_a, pose_a, body_b, pose_b, names=("a", "b"),
         boxes = np.array([[lo_a[list(plane)], hi_a[list(plane)]],
                           [lo_b[list(plane)], hi_b[list(plane)]]])
         cert = Certificate(tuple(names), "boxes", plane, boxes[0], boxes, np.empty((0, 2)),
-                           (np.empty((0, 2)), np.empty((0, 2))), ([], []))
+                           ([], []))
         return cert if cert.verify() else None
     for normal in np.argsort(hi - lo, kind="stable"):
         cert = _certificate_in_plane(body_a, pose_a, body_b, pose_b, names, lo, hi,
@@ -497,7 +490,7 @@ def _certificate_in_plane(body_a, pose_a, body_b, pose_b, names, lo, hi, boxes, 
     boxes2 = np.array([box_a, box_b])
     if not regions[0] or not regions[1]:       # one object has nothing inside the overlap box
         cert = Certificate(tuple(names), "empty", plane, rectangle, boxes2, np.empty((0, 2)),
-                           (np.empty((0, 2)), np.empty((0, 2))), regions)
+                           regions)
         return cert if cert.verify() else None
     boundary = _Boundary(lo2, hi2)
     ends = _endpoints(boundary, regions, crossings, 2 * margin)
@@ -506,7 +499,7 @@ def _certificate_in_plane(body_a, pose_a, body_b, pose_b, names, lo, hi, boxes, 
     obstacles = [_Obstacle(_rings(s.offset(10 * margin, manifold3d.JoinType.Miter)))
                  for s in sections]
     search = _Search(lo2, hi2, obstacles, step_degrees)
-    for p_start, p_end in (ends[:2], ends[1::-1]):
+    for p_start, p_end in (ends, ends[::-1]):
         if search.clear(p_start, p_end):
             kind, chain = "segment", np.array([p_start, p_end])
         else:
@@ -517,21 +510,10 @@ def _certificate_in_plane(body_a, pose_a, body_b, pose_b, names, lo, hi, boxes, 
             chain = search.run(p_start, p_end, start[1], start[2], start[3])
             if chain is None:
                 continue
-        arcs = boundary.arc(chain[-1], chain[0]), boundary.arc(chain[0], chain[-1])[::-1]
-        a_first = ends[2]
-        if a_first is None:
-            a_first = _inside_box(0.5 * (arcs[0][0] + arcs[0][1]), box_a)
-        elif p_start is not ends[0]:
-            a_first = not a_first
-        cert = Certificate(tuple(names), kind, plane, rectangle, boxes2, chain,
-                           arcs if a_first else arcs[::-1], regions)
+        cert = Certificate(tuple(names), kind, plane, rectangle, boxes2, chain, regions)
         if cert.verify():
             return cert
     return None
-
-
-def _inside_box(point, box):
-    return bool(np.all((box[0] < point) & (point < box[1])))
 
 
 # -- the verifier ---------------------------------------------------------------------
