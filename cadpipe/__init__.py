@@ -5,6 +5,7 @@ The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
 """
 
 from .errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
+from .inspect import check_mesh
 from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe
@@ -14,4 +15,5 @@ from .collision import CollisionWorld
 __version__ = "0.1.0"
 
 __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError",
-           "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "splice"]
+           "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "check_mesh",
+           "splice"]

@@ -23,15 +23,13 @@ def suffix_of(path):
     return suffix
 
 
-def as_mesh(obj):
-    """The :class:`~cadpipe.Mesh` behind ``obj``: a Mesh itself, or what its ``mesh()`` builds."""
-    from ..mesh import Mesh
-
-    if isinstance(obj, Mesh):
-        return obj
-    if callable(getattr(obj, "mesh", None)):
-        return obj.mesh()
-    raise InputError(f"cannot export a {type(obj).__name__}; expected a Mesh, Pipe or Assembly")
+def unique_name(name, taken):
+    """``name``, or ``name_1``, ``name_2``, ... if already in ``taken``; adds the result."""
+    candidate, n = str(name), 1
+    while candidate in taken:
+        candidate, n = f"{name}_{n}", n + 1
+    taken.add(candidate)
+    return candidate
 
 
 def export(obj, path, **options):
