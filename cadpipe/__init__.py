@@ -10,6 +10,7 @@ from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe
 from .splice import splice
+from .collision import CollisionWorld
 from .assembly import Assembly
 from .hollow import HollowChain, HollowPipe, Junction
 from .spec import load
@@ -17,6 +18,7 @@ from . import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
 
 __version__ = "0.1.0"
 
-__all__ = ["CadpipeError", "ExportError", "GeometryError", "InputError", "Mesh", "MeshError",
-           "Path", "Pipe", "SpecError", "__version__", "check_mesh", "splice"]
+__all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError",
+           "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "check_mesh",
+           "splice"]
 __all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "load"]

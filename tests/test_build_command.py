@@ -87,11 +87,3 @@ def test_bad_usage_exits_2(argv):
     with pytest.raises(SystemExit) as exit_:
         main(argv)
     assert exit_.value.code == 2
-
-
-@pytest.mark.parametrize("example", sorted(EXAMPLES.glob("*.toml")) +
-                         sorted(EXAMPLES.glob("*.json")), ids=lambda p: p.name)
-def test_examples_build_from_the_command_line(tmp_path, example):
-    out = tmp_path / f"{example.stem}.stl"
-    assert main(["build", str(example), "-o", str(out), "--quiet"]) == 0
-    assert cadpipe.Mesh.load(out).is_watertight

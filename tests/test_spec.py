@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import tomllib
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -12,11 +13,22 @@ import pytest
 
 import cadpipe
 from cadpipe import HollowChain, HollowPipe, Junction, Pipe, primitives
+from cadpipe.cli import main
 from cadpipe.spec import read
 from cadpipe.transform import placement
 
 EXAMPLES = FilePath(__file__).parent.parent / "assets" / "examples"
-SPECS = sorted(EXAMPLES.glob("*.toml")) + sorted(EXAMPLES.glob("*.json"))
+
+
+def is_assembly_spec(file):
+    """Assembly specs have ``parts``; collision cells (``cadpipe collide``) live here too."""
+    data = tomllib.loads(file.read_text()) if file.suffix == ".toml" else json.loads(
+        file.read_text())
+    return "parts" in data
+
+
+SPECS = [f for f in sorted(EXAMPLES.glob("*.toml")) + sorted(EXAMPLES.glob("*.json"))
+         if is_assembly_spec(f)]
 
 
 def write(folder, text, name="cell.toml"):
@@ -30,12 +42,15 @@ def test_there_are_several_examples():
 
 
 @pytest.mark.parametrize("spec", SPECS, ids=lambda p: p.name)
-def test_every_example_spec_builds_one_watertight_solid(spec):
+def test_every_example_spec_builds_one_watertight_solid(spec, tmp_path):
     read_spec = read(spec)
     solid = read_spec.assembly.union()
     assert solid.is_watertight and solid.is_outward and solid.n_bodies == 1
     assert set(solid.part_names) == {p.name for p in read_spec.assembly.parts}
     assert read_spec.outputs, "examples list their outputs"
+    out = tmp_path / "example.stl"                        # and from the command line
+    assert main(["build", str(spec), "-o", str(out), "--quiet"]) == 0
+    assert cadpipe.Mesh.load(out).volume == pytest.approx(solid.volume, rel=1e-6)
 
 
 def test_spec_builds_the_same_assembly_as_the_python_api(tmp_path):

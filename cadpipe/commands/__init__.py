@@ -3,4 +3,5 @@
 from . import demo  # noqa: F401
 from . import check  # noqa: F401
 from . import view  # noqa: F401
+from . import collide  # noqa: F401
 from . import build  # noqa: F401
