@@ -1,7 +1,9 @@
 """One module per ``cadpipe`` subcommand; importing this package registers them all."""
 
-from . import demo  # noqa: F401
-from . import check  # noqa: F401
-from . import view  # noqa: F401
-from . import collide  # noqa: F401
-from . import build  # noqa: F401
+from . import (
+    build,  # noqa: F401
+    check,  # noqa: F401
+    collide,  # noqa: F401
+    demo,  # noqa: F401
+    view,  # noqa: F401
+)
