@@ -4,14 +4,6 @@ import subprocess
 import sys
 
 import cadpipe
-from cadpipe.cli import main
-
-
-def test_demo_writes_a_watertight_pipe(tmp_path, capsys):
-    assert main(["demo", "-o", str(tmp_path)]) == 0
-    mesh = cadpipe.Mesh.load(tmp_path / "parts.stl")
-    assert mesh.is_watertight and mesh.volume > 0
-    assert "wrote" in capsys.readouterr().out
 
 
 def test_python_m_cadpipe_reports_usage_errors_with_exit_2():
@@ -29,3 +21,12 @@ def test_user_error_is_one_line_without_traceback(tmp_path):
     assert run.returncode == 1
     assert "Traceback" not in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1
+
+
+def test_outputs_get_ordinary_file_permissions(tmp_path):
+    import os
+
+    out = cadpipe.Pipe([[0, 0, 0], [1, 0, 0]], 0.1).mesh().export(tmp_path / "p.stl")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert os.stat(out).st_mode & 0o777 == 0o666 & ~mask

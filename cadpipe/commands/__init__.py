@@ -1,3 +1,3 @@
 """One module per ``cadpipe`` subcommand; importing this package registers them all."""
 
-from . import demo  # noqa: F401
+from . import build, check, collide, demo, view  # noqa: F401

@@ -23,15 +23,13 @@ def suffix_of(path):
     return suffix
 
 
-def as_mesh(obj):
-    """The :class:`~cadpipe.Mesh` behind ``obj``: a Mesh itself, or what its ``mesh()`` builds."""
-    from ..mesh import Mesh
-
-    if isinstance(obj, Mesh):
-        return obj
-    if callable(getattr(obj, "mesh", None)):
-        return obj.mesh()
-    raise InputError(f"cannot export a {type(obj).__name__}; expected a Mesh, Pipe or Assembly")
+def unique_name(name, taken):
+    """``name``, or ``name_1``, ``name_2``, ... if already in ``taken``; adds the result."""
+    candidate, n = str(name), 1
+    while candidate in taken:
+        candidate, n = f"{name}_{n}", n + 1
+    taken.add(candidate)
+    return candidate
 
 
 def export(obj, path, **options):
@@ -46,6 +44,12 @@ def export(obj, path, **options):
                          f"{', '.join('.' + n for n in exporters.names())}")
     exporters.get(key)(obj, FilePath(path), **options)
     return FilePath(path)
+
+
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def ensure_folder(folder):
@@ -74,6 +78,7 @@ def atomic_path(path):
     os.close(fd)
     try:
         yield FilePath(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())      # mkstemp's 0600 is for the temporary only
         os.replace(tmp, path)
     except OSError as exc:
         raise ExportError(f"{path}: writing failed ({exc}); nothing was written") from None

@@ -1,0 +1,16 @@
+"""Collision checks for robot cells (source 2): self-collision first, then a
+bounding-volume broad phase, an exact narrow phase and separation certificates.
+
+Meshes go through FCL's BVHs (plus a containment test FCL lacks); pipes are
+checked analytically as chains of round cones; robots come from URDF.
+"""
+
+from .bodies import Box, Capsule, Sphere
+from .certificate import Certificate
+from .fixture import PipeContainment
+from .robot import Joint, Robot, srdf_disabled_pairs
+from .world import STAGES, Clearance, CollisionReport, CollisionWorld, PairResult
+
+__all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
+           "CollisionWorld", "Joint", "PairResult", "PipeContainment", "Robot", "Sphere",
+           "srdf_disabled_pairs"]

@@ -1,0 +1,179 @@
+"""What the collision world stores per object: a body in its own frame.
+
+A body is either a closed triangle mesh (checked through FCL's BVH, plus a
+point-in-solid test for containment) or a chain of balls (a pipe, sphere or
+capsule, checked analytically by :mod:`cadpipe.collision.capsules`). Either
+way it carries the points its bounding volumes are built from, a local OBB and
+the probe points used to detect one solid wholly inside another.
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from .._validate import as_positive
+from ..errors import InputError
+from ..mesh import Mesh
+from ..pipe import Pipe
+from . import bounds
+from .capsules import Chain
+
+
+@dataclass(frozen=True)
+class Box:
+    """A solid box of ``size`` (x, y, z), centred on its frame's origin."""
+
+    size: tuple
+
+    def __post_init__(self):
+        object.__setattr__(self, "size", tuple(float(v) for v in
+                                               as_positive(self.size, "box size", count=3)))
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A solid ball of ``radius`` centred on its frame's origin."""
+
+    radius: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", float(as_positive(self.radius, "sphere radius")))
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """A segment of ``length`` along z, centred on the origin, swept by a ball of
+    ``radius`` (FCL's and URDF's convention)."""
+
+    radius: float
+    length: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "radius", float(as_positive(self.radius, "capsule radius")))
+        object.__setattr__(self, "length", float(as_positive(self.length, "capsule length")))
+
+
+def box_mesh(size):
+    """The closed 12-triangle mesh of a centred box."""
+    import trimesh
+
+    return Mesh.from_trimesh(trimesh.creation.box(extents=size))
+
+
+class Body:
+    """A collision shape in its own frame; see :func:`as_body`."""
+
+    def __init__(self, *, mesh=None, chain=None):
+        self.mesh = mesh
+        self.chain = chain
+        self.kind = "mesh" if mesh is not None else "chain"
+
+    @cached_property
+    def hull(self):
+        """(H, 3) points whose padded hull contains the body, and (H,) padding."""
+        if self.kind == "chain":
+            return self.chain.centers, self.chain.radii
+        from scipy.spatial import ConvexHull, QhullError
+
+        vertices = self.mesh.vertices
+        try:
+            points = vertices[ConvexHull(vertices).vertices]
+        except QhullError:             # flat meshes: every vertex is extreme enough
+            points = vertices
+        return points, np.zeros(len(points))
+
+    @cached_property
+    def obb(self):
+        """``(centre, axes, half_extents)`` in the body's frame."""
+        return bounds.fit_obb(*self.hull)
+
+    @cached_property
+    def probes(self):
+        """One point of each connected piece: if no boundaries touch, a piece is
+        inside another solid exactly when its probe is."""
+        if self.kind == "chain":
+            return self.chain.centers[:1]
+        labels = self.mesh.body_labels
+        used = np.unique(self.mesh.faces)
+        _, first = np.unique(labels[used], return_index=True)
+        return self.mesh.vertices[used[first]]
+
+    @cached_property
+    def solid(self):
+        """The mesh as a manifold3d solid (meshes only; for certificates)."""
+        return self.mesh.to_manifold()
+
+    @cached_property
+    def fcl_geometry(self):
+        """FCL's BVH of the mesh (meshes only)."""
+        import fcl
+
+        bvh = fcl.BVHModel()
+        bvh.beginModel(len(self.mesh.vertices), len(self.mesh.faces))
+        bvh.addSubModel(np.asarray(self.mesh.vertices), np.asarray(self.mesh.faces))
+        bvh.endModel()
+        return bvh
+
+    @cached_property
+    def fcl_anchor(self):
+        """An FCL object of the BVH that stays at the identity: pairs are checked in
+        this body's frame."""
+        import fcl
+
+        return fcl.CollisionObject(self.fcl_geometry, fcl.Transform())
+
+    @cached_property
+    def fcl_mover(self):
+        """A second FCL object of the BVH, moved to the other body's relative pose."""
+        import fcl
+
+        return fcl.CollisionObject(self.fcl_geometry, fcl.Transform())
+
+    @cached_property
+    def pseudo_normals(self):
+        """See :func:`cadpipe.collision.narrow.pseudo_normals` (meshes only)."""
+        from .narrow import pseudo_normals
+
+        return pseudo_normals(self.mesh)
+
+    @cached_property
+    def fcl_units(self):
+        """FCL objects of the chain's units, one per unit: each the capsule (or ball)
+        of the unit's larger end radius, exact for untapered units; and their
+        poses in the body's frame (FCL's capsule is centred on its z axis)."""
+        import fcl
+
+        from .narrow import unit_poses
+
+        chain = self.chain
+        length = np.linalg.norm(chain.ends - chain.starts, axis=1)
+        radius = np.maximum(chain.start_radii, chain.end_radii)
+        shapes = [fcl.Capsule(r, h) if h > 0 else fcl.Sphere(r) for r, h in zip(radius, length)]
+        return [fcl.CollisionObject(g, fcl.Transform()) for g in shapes], \
+            unit_poses(chain.starts, chain.ends)
+
+
+def as_body(obj, name):
+    """The :class:`Body` of a Mesh, Pipe, primitive or trimesh object.
+
+    Meshes must be closed, outward solids (containment needs an inside);
+    pipes become chains of balls along their path with their ring radii.
+    """
+    import trimesh
+
+    if isinstance(obj, trimesh.Trimesh):
+        obj = Mesh.from_trimesh(obj)
+    if isinstance(obj, Mesh):
+        return Body(mesh=obj.require_solid(name))
+    if isinstance(obj, Pipe):
+        return Body(chain=Chain.along(obj.path.points, obj.ring_radii, closed=obj.closed))
+    if isinstance(obj, Box):
+        return Body(mesh=box_mesh(obj.size))
+    if isinstance(obj, Sphere):
+        return Body(chain=Chain.along(np.zeros((1, 3)), obj.radius))
+    if isinstance(obj, Capsule):
+        half = np.array([[0.0, 0.0, -0.5 * obj.length], [0.0, 0.0, 0.5 * obj.length]])
+        return Body(chain=Chain.along(half, obj.radius))
+    raise InputError(f"{name}: cannot check a {type(obj).__name__} for collisions; "
+                     "add a cadpipe Mesh, Pipe, Box, Sphere or Capsule")

@@ -1,0 +1,321 @@
+"""Pipes as chains of round cones: exact distances from segments and radii.
+
+The source checks pipes "by finite units"; here each unit between two path points
+is the convex hull of two balls, ``conv(B(a, ra), B(b, rb))`` -- a capsule when
+the radii are equal, a truncated cone with spherical ends otherwise. That hull is
+the union of the balls ``B(a + s (b - a), ra + s (rb - ra))`` for ``s`` in
+``[0, 1]``, so
+
+* a point's signed distance to a unit has a closed form in the unit's
+  (axial, radial) half-plane, and
+* the gap between two units is ``min over (s, t) of |p(s) - q(t)| - r(s) - rho(t)``,
+  a convex function on the unit square whose minimum is at a stationary point
+  inside or on one of the four edges -- each found in closed form.
+
+A chain is the union of its units. Everything is vectorized over units, unit
+pairs and query points: no triangle is ever looked at.
+"""
+
+from functools import cached_property
+
+import numpy as np
+
+#: units per block of the two-level pruning hierarchy
+BLOCK = 8
+#: cap on (points x units) or (unit pairs) elements evaluated per numpy batch
+BATCH = 1 << 18
+
+
+def _dot(a, b):
+    return np.einsum("...i,...i->...", a, b)
+
+
+# -- points against units -------------------------------------------------------
+def round_cone_distance(points, a, b, ra, rb):
+    """Signed distance of points to round-cone units ``conv(B(a, ra), B(b, rb))``.
+
+    All arguments broadcast against each other (points ``(..., 3)``). Exact
+    outside a unit; inside it is the distance to the unit's own boundary.
+    Reduced to the unit's half-plane -- axial ``y`` along ``a -> b``, radial
+    ``x`` -- where the side line touches both end circles; ``w``, the
+    coordinate along that line, tells which of the three boundary pieces is
+    nearest.
+    """
+    axis = b - a
+    length = np.linalg.norm(axis, axis=-1)
+    safe = np.where(length > 0, length, 1.0)
+    u = axis / safe[..., None]
+    rel = points - a
+    y = _dot(rel, u)
+    x = np.sqrt(np.maximum(_dot(rel, rel) - y * y, 0.0))
+    delta = (ra - rb) / safe                      # sine of the cone's half angle
+    cone = (length > 0) & (np.abs(delta) < 1.0)
+    delta = np.where(cone, delta, 0.0)
+    cos = np.sqrt(1.0 - delta * delta)
+    w = y * cos - x * delta
+    to_a = np.hypot(x, y) - ra
+    to_b = np.hypot(x, y - length) - rb
+    side = x * cos + y * delta - ra
+    sd = np.where(w < 0, to_a, np.where(w > length * cos, to_b, side))
+    # one ball swallows the other (or a zero-length unit): the bigger ball
+    return np.where(cone, sd, np.where(ra >= rb, to_a, to_b))
+
+
+def chain_signed_distance(points, a, b, ra, rb):
+    """Signed distance of ``(P, 3)`` points to a union of units.
+
+    Exact outside; inside, the depth within the deepest unit (never more than the
+    true depth), so the sign is exact everywhere. Batched to bound memory.
+    """
+    points = np.asarray(points, np.float64)
+    out = np.empty(len(points))
+    step = max(1, BATCH // max(len(a), 1))
+    for start in range(0, len(points), step):
+        out[start:start + step] = round_cone_distance(points[start:start + step, None], a, b,
+                                                      ra, rb).min(axis=1)
+    return out
+
+
+# -- unit against unit ------------------------------------------------------------
+def _edge_minimum(c, w, k):
+    """argmin over x in [0, 1] of ``|c + x w| - k x`` (convex), vectorized."""
+    beta = np.linalg.norm(w, axis=-1)
+    safe = np.where(beta > 0, beta, 1.0)
+    along = _dot(c, w) / safe
+    h = np.sqrt(np.maximum(_dot(c, c) - along * along, 0.0))
+    kappa = k / safe
+    inner = np.abs(kappa) < 1.0
+    root = np.where(inner, kappa * h / np.sqrt(np.where(inner, 1.0 - kappa * kappa, 1.0)), 0.0)
+    x = np.where(inner, (root - along) / safe, np.where(kappa >= 1.0, 1.0, 0.0))
+    x = np.where(beta > 0, x, np.where(k > 0, 1.0, 0.0))
+    return np.clip(x, 0.0, 1.0)
+
+
+def _segment_closest(p0, u, q0, v):
+    """Parameters of the closest points of segments ``p0 + s u`` and ``q0 + t v``."""
+    r = p0 - q0
+    a, e, b = _dot(u, u), _dot(v, v), _dot(u, v)
+    c, f = _dot(u, r), _dot(v, r)
+    den = a * e - b * b
+    safe_a = np.where(a > 0, a, 1.0)
+    safe_e = np.where(e > 0, e, 1.0)
+    s = np.where(den > 1e-14 * np.maximum(a * e, 1e-300),
+                 np.clip((b * f - c * e) / np.where(den != 0, den, 1.0), 0.0, 1.0), 0.0)
+    t = (b * s + f) / safe_e
+    t_clamped = np.clip(t, 0.0, 1.0)
+    s = np.where(t != t_clamped, np.clip((b * t_clamped - c) / safe_a, 0.0, 1.0), s)
+    s = np.where(e > 0, s, np.clip(-c / safe_a, 0.0, 1.0))
+    s = np.where(a > 0, s, 0.0)
+    t = np.where(e > 0, t_clamped, 0.0)
+    return s, t
+
+
+def _interior_stationary(p0, u, q0, v, dr, drho, sign):
+    """A stationary point of the pair gap inside the square, or NaN where none.
+
+    At a smooth minimum the unit direction ``d`` between the centres satisfies
+    ``u.d = dr`` and ``v.d = -drho``; with ``|d| = 1`` that leaves two candidates
+    (``sign`` picks one), each giving (s, t, lambda) by a linear solve.
+    """
+    n = np.cross(u, v)
+    nn = _dot(n, n)
+    uu, vv, uv = _dot(u, u), _dot(v, v), _dot(u, v)
+    det = uu * vv - uv * uv
+    ok = nn > 1e-14 * np.maximum(uu * vv, 1e-300)
+    det = np.where(ok, det, 1.0)
+    alpha = (dr * vv + drho * uv) / det
+    beta = (-drho * uu - dr * uv) / det
+    m = alpha[..., None] * u + beta[..., None] * v
+    rest = 1.0 - _dot(m, m)
+    ok &= rest > 0
+    gamma = sign * np.sqrt(np.where(ok, rest, 0.0) / np.where(ok, nn, 1.0))
+    d = m + gamma[..., None] * n
+    r = p0 - q0
+    den = gamma * nn
+    ok &= np.abs(den) > 0
+    lam = _dot(r, n) / np.where(ok, den, 1.0)
+    target = lam[..., None] * d - r               # = s u - t v
+    tu, tv = _dot(target, u), _dot(target, v)
+    s = (tu * vv - tv * uv) / det
+    t = (tu * uv - tv * uu) / det
+    ok &= (lam > 0) & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)
+    return np.where(ok, s, np.nan), np.where(ok, t, np.nan)
+
+
+def unit_pair_gap(a0, a1, ra0, ra1, b0, b1, rb0, rb1):
+    """Gap between paired units (negative: they overlap) and where it is attained.
+
+    Returns ``gap, s, t`` (arrays over the pairs); the nearest centres are
+    ``a0 + s (a1 - a0)`` and ``b0 + t (b1 - b0)``. Exact: the minimum of the
+    convex gap function over the unit square is among the four edge minima, the
+    two smooth stationary points and the segments' own closest points (which
+    catch a minimum where the axes cross).
+    """
+    u, v = a1 - a0, b1 - b0
+    dr, drho = ra1 - ra0, rb1 - rb0
+    if not (np.any(dr) or np.any(drho)):     # capsules: the axes' closest points decide
+        s, t = _segment_closest(a0, u, b0, v)
+        diff = a0 + s[..., None] * u - b0 - t[..., None] * v
+        return np.linalg.norm(diff, axis=-1) - ra0 - rb0, s, t
+
+    def gap(s, t):
+        diff = a0 + s[..., None] * u - b0 - t[..., None] * v
+        return np.linalg.norm(diff, axis=-1) - (ra0 + s * dr) - (rb0 + t * drho)
+
+    one, zero = np.ones_like(ra0), np.zeros_like(ra0)
+    candidates = []
+    # edges s = 0, s = 1 (t free) and t = 0, t = 1 (s free)
+    for s_fixed in (zero, one):
+        t = _edge_minimum(b0 - a0 - s_fixed[..., None] * u, v, drho)
+        candidates.append((s_fixed, t))
+    for t_fixed in (zero, one):
+        s = _edge_minimum(a0 - b0 - t_fixed[..., None] * v, u, dr)
+        candidates.append((s, t_fixed))
+    candidates.append(_segment_closest(a0, u, b0, v))
+    for sign in (1.0, -1.0):
+        s, t = _interior_stationary(a0, u, b0, v, dr, drho, sign)
+        found = ~np.isnan(s)
+        candidates.append((np.where(found, s, 0.0), np.where(found, t, 0.0)))
+    s_all = np.stack([c[0] for c in candidates])
+    t_all = np.stack([c[1] for c in candidates])
+    values = gap(s_all, t_all)
+    best = np.argmin(values, axis=0)
+    pick = (best, *np.indices(best.shape))
+    return values[pick], s_all[pick], t_all[pick]
+
+
+# -- chains ---------------------------------------------------------------------
+class Chain:
+    """A union of round-cone units: ``centers[i] -> centers[j]`` for each edge.
+
+    Parameters
+    ----------
+    centers : (N, 3) float array
+        Ball centres (a pipe's path points).
+    radii : (N,) float array
+        Ball radii (a pipe's ring radii).
+    edges : (U, 2) int array
+        The units, as index pairs into ``centers`` (``(i, i)`` is a lone ball).
+    """
+
+    def __init__(self, centers, radii, edges, blocks=None):
+        self.centers, self.radii, self.edges = centers, radii, edges
+        self.starts, self.ends = centers[edges[:, 0]], centers[edges[:, 1]]
+        self.start_radii, self.end_radii = radii[edges[:, 0]], radii[edges[:, 1]]
+        if blocks is not None:
+            self.__dict__["blocks"] = blocks
+
+    @classmethod
+    def along(cls, points, radii, closed=False):
+        """Units between consecutive points (and back to the first when ``closed``)."""
+        points = np.asarray(points, np.float64)
+        n = len(points)
+        if n == 1:
+            edges = np.zeros((1, 2), np.int64)
+        else:
+            i = np.arange(n if closed else n - 1)
+            edges = np.stack([i, (i + 1) % n], axis=1)
+        return cls(points, np.broadcast_to(np.asarray(radii, np.float64), (n,)).copy(), edges)
+
+    def moved(self, matrix):
+        """The chain moved by a rigid 4x4 matrix (its block spheres move along)."""
+        rot, shift = matrix[:3, :3], matrix[:3, 3]
+        centre, radius, index = self.blocks
+        return Chain(self.centers @ rot.T + shift, self.radii, self.edges,
+                     (centre @ rot.T + shift, radius, index))
+
+    @cached_property
+    def unit_spheres(self):
+        """(U, 3) centre and (U,) radius of a ball around each unit."""
+        centre = 0.5 * (self.starts + self.ends)
+        half = 0.5 * np.linalg.norm(self.ends - self.starts, axis=1)
+        return centre, half + np.maximum(self.start_radii, self.end_radii)
+
+    @cached_property
+    def unit_bounds(self):
+        """(U, 2, 3) axis-aligned box of each unit."""
+        r0, r1 = self.start_radii[:, None], self.end_radii[:, None]
+        lo = np.minimum(self.starts - r0, self.ends - r1)
+        hi = np.maximum(self.starts + r0, self.ends + r1)
+        return np.stack([lo, hi], axis=1)
+
+    @cached_property
+    def blocks(self):
+        """Bounding spheres of runs of :data:`BLOCK` consecutive units: centre, radius,
+        and each block's unit indices (padded with -1)."""
+        count = len(self.edges)
+        n_blocks = -(-count // BLOCK)
+        index = np.arange(n_blocks * BLOCK).reshape(n_blocks, BLOCK)
+        index = np.where(index < count, index, -1)
+        valid = index >= 0
+        safe = np.where(valid, index, 0)
+        lo, hi = self.unit_bounds[safe, 0], self.unit_bounds[safe, 1]
+        lo = np.where(valid[..., None], lo, np.inf).min(axis=1)
+        hi = np.where(valid[..., None], hi, -np.inf).max(axis=1)
+        centre = 0.5 * (lo + hi)
+        rim = np.maximum(np.linalg.norm(self.starts[safe] - centre[:, None], axis=2)
+                         + self.start_radii[safe],
+                         np.linalg.norm(self.ends[safe] - centre[:, None], axis=2)
+                         + self.end_radii[safe])
+        return centre, np.where(valid, rim, 0.0).max(axis=1), index
+
+    # queries
+    def signed_distance(self, points):
+        """Signed distance of ``(P, 3)`` points (negative inside); see
+        :func:`chain_signed_distance`."""
+        return chain_signed_distance(points, self.starts, self.ends, self.start_radii,
+                                     self.end_radii)
+
+    def gap(self, other, stop_below=None):
+        """Smallest unit-pair gap to ``other`` and the two nearest surface points.
+
+        Block spheres prune the unit pairs: the closest block pairs are solved
+        first, then only block pairs whose lower bound beats the best gap so far.
+        With ``stop_below``, returns as soon as a gap below it is found (a yes/no
+        collision query needs no more). Returns ``(gap, point_self, point_other)``.
+        """
+        ca, ra, ia = self.blocks
+        cb, rb, ib = other.blocks
+        lower = np.linalg.norm(ca[:, None] - cb[None], axis=2) - ra[:, None] - rb[None]
+        order = np.argsort(lower, axis=None)
+        lower = lower.ravel()[order]
+        pa, pb = np.unravel_index(order, (len(ca), len(cb)))
+        best = (np.inf, None, None)
+        first = 0
+        for size in (4, None):
+            limit = len(order) if size is None else min(size, len(order))
+            take = np.arange(first, limit)
+            take = take[lower[take] < best[0]]
+            first = limit
+            if take.size == 0:
+                continue
+            ua = ia[pa[take]][:, :, None].repeat(BLOCK, axis=2).reshape(-1)
+            ub = ib[pb[take]][:, None, :].repeat(BLOCK, axis=1).reshape(-1)
+            keep = (ua >= 0) & (ub >= 0)
+            best = min(best, self._pair_gaps(other, ua[keep], ub[keep]), key=lambda g: g[0])
+            if stop_below is not None and best[0] < stop_below:
+                break
+        return best
+
+    def _pair_gaps(self, other, ua, ub):
+        """The best gap among the unit pairs ``(ua[k], ub[k])``, batched."""
+        best = (np.inf, None, None)
+        for start in range(0, len(ua), BATCH):
+            i, j = ua[start:start + BATCH], ub[start:start + BATCH]
+            g, s, t = unit_pair_gap(self.starts[i], self.ends[i], self.start_radii[i],
+                                    self.end_radii[i], other.starts[j], other.ends[j],
+                                    other.start_radii[j], other.end_radii[j])
+            k = int(np.argmin(g))
+            if g[k] < best[0]:
+                best = (float(g[k]), *self._surface_points(other, i[k], j[k], s[k], t[k]))
+        return best
+
+    def _surface_points(self, other, i, j, s, t):
+        p = self.starts[i] + s * (self.ends[i] - self.starts[i])
+        q = other.starts[j] + t * (other.ends[j] - other.starts[j])
+        r = self.start_radii[i] + s * (self.end_radii[i] - self.start_radii[i])
+        rho = other.start_radii[j] + t * (other.end_radii[j] - other.start_radii[j])
+        d = q - p
+        norm = np.linalg.norm(d)
+        d = d / norm if norm > 0 else np.array([1.0, 0.0, 0.0])
+        return p + r * d, q - rho * d

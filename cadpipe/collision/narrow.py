@@ -1,0 +1,295 @@
+"""The exact narrow phase: does a pair touch, and how far apart is it?
+
+* mesh vs mesh: FCL's BVH traversal (the engine trimesh uses) finds crossing
+  triangles. It never sees one closed mesh wholly inside another -- no triangles
+  cross -- so when it reports no contact, one probe point per connected piece
+  of each mesh is tested against the other with the generalized winding number.
+* chain vs chain: :mod:`cadpipe.collision.capsules`, in closed form.
+* chain vs mesh: each chain unit as an FCL capsule against the mesh's BVH
+  (a unit lying inside the mesh is caught by the probe test; a mesh inside a
+  unit is caught by FCL, which treats the capsule as solid).
+
+Every pair is evaluated in the mesh's own frame, so a BVH is built once per
+body and never refitted. Touching counts as contact.
+"""
+
+import numpy as np
+
+from .capsules import BATCH
+
+#: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
+INSIDE = 0.5
+
+
+def _relative(pose_a, pose_b):
+    """Pose of b in a's frame."""
+    inv = np.eye(4)
+    inv[:3, :3] = pose_a[:3, :3].T
+    inv[:3, 3] = -pose_a[:3, :3].T @ pose_a[:3, 3]
+    return inv @ pose_b
+
+
+def _apply(matrix, points):
+    return points @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def winding_numbers(triangles, points):
+    """Generalized winding number of a closed triangle soup at each point.
+
+    The sum of the signed solid angles of the triangles seen from the point
+    (Van Oosterom and Strackee's formula) over 4 pi: 1 inside a closed outward
+    mesh, 0 outside. Vectorized over triangles, batched over points.
+    """
+    points = np.asarray(points, np.float64)
+    out = np.empty(len(points))
+    step = max(1, BATCH // max(len(triangles), 1))
+    for start in range(0, len(points), step):
+        rel = triangles[None] - points[start:start + step, None, None, :]
+        a, b, c = rel[:, :, 0], rel[:, :, 1], rel[:, :, 2]
+        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
+        det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+        den = (la * lb * lc + np.einsum("pfi,pfi->pf", a, b) * lc
+               + np.einsum("pfi,pfi->pf", b, c) * la + np.einsum("pfi,pfi->pf", c, a) * lb)
+        out[start:start + step] = np.arctan2(det, den).sum(axis=1) / (2.0 * np.pi)
+    return out
+
+
+def pseudo_normals(mesh):
+    """Angle-weighted pseudo-normals of a closed mesh (Baerentzen and Aanaes, 2005):
+    per face, per vertex, and per undirected edge (sorted ``i * V + j`` keys).
+
+    The sign of ``(p - q) . n`` at the nearest surface point ``q``, with ``n`` the
+    pseudo-normal of the feature ``q`` lies on, tells inside from outside.
+    """
+    tri = mesh.triangles
+    normals = mesh.face_normals
+    corner = np.zeros((len(tri), 3))
+    for k in range(3):
+        e1 = tri[:, (k + 1) % 3] - tri[:, k]
+        e2 = tri[:, (k + 2) % 3] - tri[:, k]
+        cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(
+            np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300)
+        corner[:, k] = np.arccos(np.clip(cos, -1.0, 1.0))
+    vertex = np.zeros((len(mesh.vertices), 3))
+    np.add.at(vertex, mesh.faces.ravel(), (corner[:, :, None] * normals[:, None]).reshape(-1, 3))
+    f = mesh.faces
+    pairs = np.sort(np.stack([f, np.roll(f, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    keys, inverse = np.unique(pairs[:, 0] * len(mesh.vertices) + pairs[:, 1],
+                              return_inverse=True)
+    edge = np.zeros((len(keys), 3))
+    np.add.at(edge, inverse, np.repeat(normals, 3, axis=0))
+    return normals, vertex, keys, edge
+
+
+def mesh_contains(body, points):
+    """Which ``(P, 3)`` points (in the mesh's frame) lie inside the closed mesh body.
+
+    For each point FCL finds the nearest triangle (a BVH query); the side is the
+    sign against the pseudo-normal of the face, edge or vertex the nearest point
+    lies on. Where that sign is too close to call, the winding number decides.
+    """
+    import fcl
+
+    points = np.asarray(points, np.float64)
+    lo, hi = body.mesh.bounds
+    inside = np.all((points >= lo) & (points <= hi), axis=1)
+    if not inside.any():
+        return inside
+    faces, vertices = body.mesh.faces, body.mesh.vertices
+    normals, vertex, keys, edge = body.pseudo_normals
+    mesh_object = body.fcl_anchor
+    probe = fcl.CollisionObject(fcl.Sphere(0.0), fcl.Transform())
+    request = fcl.DistanceRequest(enable_nearest_points=True)
+    unsure = []
+    for k in np.flatnonzero(inside):
+        probe.setTransform(fcl.Transform(points[k]))
+        result = fcl.DistanceResult()
+        fcl.distance(mesh_object, probe, request, result)
+        q, t = np.asarray(result.nearest_points[0]), result.b1
+        corners = vertices[faces[t]]
+        bary = _barycentric(q, corners)
+        small = bary < 1e-7
+        if small.sum() >= 2:                      # nearest to a vertex
+            n = vertex[faces[t, int(np.argmax(bary))]]
+        elif small.any():                         # nearest to an edge
+            i, j = np.sort(faces[t][~small])
+            n = edge[np.searchsorted(keys, i * len(vertices) + j)]
+        else:
+            n = normals[t]
+        offset = points[k] - q
+        side = float(np.dot(offset, n))
+        if abs(side) <= 1e-9 * np.linalg.norm(offset) * np.linalg.norm(n):
+            unsure.append(k)
+        inside[k] = side < 0
+    if unsure:
+        inside[unsure] = winding_numbers(body.mesh.triangles, points[unsure]) > INSIDE
+    return inside
+
+
+def _barycentric(q, corners):
+    a, b, c = corners
+    v0, v1, v2 = b - a, c - a, q - a
+    d00, d01, d11 = v0 @ v0, v0 @ v1, v1 @ v1
+    d20, d21 = v2 @ v0, v2 @ v1
+    den = d00 * d11 - d01 * d01
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    return np.array([1.0 - v - w, v, w])
+
+
+def unit_poses(starts, ends):
+    """4x4 poses placing FCL's z-aligned, centred capsule on each unit."""
+    axis = ends - starts
+    length = np.linalg.norm(axis, axis=1, keepdims=True)
+    d = np.where(length > 0, axis / np.where(length > 0, length, 1.0), [0.0, 0.0, 1.0])
+    c = d[:, 2]
+    v = np.stack([-d[:, 1], d[:, 0], np.zeros(len(d))], axis=1)     # z x d
+    k = np.zeros((len(d), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
+    k -= np.transpose(k, (0, 2, 1))
+    flipped = c < -1.0 + 1e-12
+    scale = np.where(flipped, 0.0, 1.0 / np.where(flipped, 1.0, 1.0 + c))
+    rot = np.eye(3) + k + np.einsum("kij,kjl->kil", k, k) * scale[:, None, None]
+    rot[flipped] = np.diag([1.0, -1.0, -1.0])
+    poses = np.tile(np.eye(4), (len(d), 1, 1))
+    poses[:, :3, :3] = rot
+    poses[:, :3, 3] = 0.5 * (starts + ends)
+    return poses
+
+
+# -- yes / no ---------------------------------------------------------------------
+def collide(body_a, pose_a, body_b, pose_b):
+    """``(touching, decided_by)`` for two placed bodies; decided_by is
+    ``"analytic"``, ``"fcl"`` or ``"containment"``."""
+    if body_a.kind == "chain" and body_b.kind == "chain":
+        gap = body_a.chain.moved(pose_a).gap(body_b.chain.moved(pose_b), stop_below=0.0)[0]
+        return gap <= 0.0, "analytic"
+    if body_a.kind == "chain":
+        body_a, pose_a, body_b, pose_b = body_b, pose_b, body_a, pose_a
+    rel = _relative(pose_a, pose_b)
+    if body_b.kind == "mesh":
+        return _mesh_mesh(body_a, body_b, rel)
+    return _mesh_chain(body_a, body_b, rel)
+
+
+def _placed(body, pose):
+    """The body's movable FCL object, set to ``pose``."""
+    import fcl
+
+    body.fcl_mover.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+    return body.fcl_mover
+
+
+def _mesh_mesh(body_a, body_b, rel):
+    import fcl
+
+    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
+    if fcl.collide(body_a.fcl_anchor, _placed(body_b, rel), request, fcl.CollisionResult()):
+        return True, "fcl"
+    if mesh_contains(body_a, _apply(rel, body_b.probes)).any():
+        return True, "containment"
+    inv = _relative(rel, np.eye(4))
+    if mesh_contains(body_b, _apply(inv, body_a.probes)).any():
+        return True, "containment"
+    return False, "fcl"
+
+
+def _units_at(chain_body, rel, units):
+    """The chain's FCL unit objects ``units``, moved by ``rel``."""
+    import fcl
+
+    objects, local = chain_body.fcl_units
+    poses = rel @ local[units]
+    for unit, pose in zip(units, poses):
+        objects[unit].setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        yield unit, objects[unit]
+
+
+def _mesh_chain(mesh_body, chain_body, rel):
+    import fcl
+
+    centre, radius = chain_body.chain.unit_spheres
+    lo, hi = mesh_body.mesh.bounds
+    moved = _apply(rel, centre)
+    near = np.flatnonzero(np.linalg.norm(moved - np.clip(moved, lo, hi), axis=1) <= radius)
+    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
+    for _, unit in _units_at(chain_body, rel, near):
+        if fcl.collide(mesh_body.fcl_anchor, unit, request, fcl.CollisionResult()):
+            return True, "fcl"
+    if mesh_contains(mesh_body, _apply(rel, chain_body.chain.centers[:1])).any():
+        return True, "containment"
+    return False, "fcl"
+
+
+# -- clearance ----------------------------------------------------------------------
+def distance(body_a, pose_a, body_b, pose_b):
+    """``(distance, point_a, point_b, decided_by)`` in world coordinates.
+
+    Distance 0 (and no points) when the bodies touch or one contains the other.
+    """
+    if body_a.kind == "chain" and body_b.kind == "chain":
+        gap, pa, pb = body_a.chain.moved(pose_a).gap(body_b.chain.moved(pose_b))
+        if gap <= 0:
+            return 0.0, None, None, "analytic"
+        return gap, pa, pb, "analytic"
+    swap = body_a.kind == "chain"
+    if swap:
+        body_a, pose_a, body_b, pose_b = body_b, pose_b, body_a, pose_a
+    rel = _relative(pose_a, pose_b)
+    if body_b.kind == "mesh":
+        dist, pa, pb = _mesh_mesh_distance(body_a, body_b, rel)
+    else:
+        dist, pa, pb = _mesh_chain_distance(body_a, body_b, rel)
+    decided = "fcl"
+    if dist > 0 and collide(body_a, np.eye(4), body_b, rel)[0]:
+        dist, pa, pb, decided = 0.0, None, None, "containment"
+    if dist <= 0:
+        return 0.0, None, None, decided
+    pa, pb = _apply(pose_a, pa), _apply(pose_a, pb)
+    return (dist, pb, pa, decided) if swap else (dist, pa, pb, decided)
+
+
+def _fcl_distance(object_a, object_b):
+    import fcl
+
+    result = fcl.DistanceResult()
+    dist = fcl.distance(object_a, object_b, fcl.DistanceRequest(enable_nearest_points=True),
+                        result)
+    return dist, np.array(result.nearest_points[0]), np.array(result.nearest_points[1])
+
+
+def _mesh_mesh_distance(body_a, body_b, rel):
+    """FCL's BVH distance; both nearest points in a's frame."""
+    return _fcl_distance(body_a.fcl_anchor, _placed(body_b, rel))
+
+
+def _mesh_chain_distance(mesh_body, chain_body, rel):
+    """Smallest FCL distance from the mesh to a chain unit, units visited nearest
+    box first and stopped once no remaining unit's box can be closer.
+
+    FCL reports the mesh's nearest point reliably (in the mesh's frame); the
+    chain's is recomputed as the unit surface point facing it.
+    """
+    chain = chain_body.chain.moved(rel)
+    lo, hi = mesh_body.mesh.bounds
+    ub = chain.unit_bounds
+    lower = np.linalg.norm(np.maximum(np.maximum(lo - ub[:, 1], ub[:, 0] - hi), 0.0), axis=1)
+    order = np.argsort(lower, kind="stable")
+    best, best_unit = (np.inf, None, None), None
+    for unit, obj in _units_at(chain_body, rel, order):
+        if lower[unit] >= best[0]:
+            break
+        found = _fcl_distance(mesh_body.fcl_anchor, obj)
+        if found[0] < best[0]:
+            best, best_unit = found, unit
+        if best[0] <= 0:
+            break
+    dist, mesh_point = best[0], best[1]
+    if dist <= 0:
+        return dist, None, None
+    a, b = chain.starts[best_unit], chain.ends[best_unit]
+    axis = b - a
+    t = np.clip(np.dot(mesh_point - a, axis) / max(np.dot(axis, axis), 1e-300), 0.0, 1.0)
+    centre = a + t * axis
+    towards = mesh_point - centre
+    return dist, mesh_point, mesh_point - dist * towards / np.linalg.norm(towards)

@@ -1,0 +1,185 @@
+"""Assemblies: unions, differences and intersections that keep part identity."""
+
+import manifold3d
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+import cadpipe
+from cadpipe import Assembly, HollowPipe, Pipe, primitives
+from cadpipe.transform import placement
+
+directions = st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: np.linalg.norm(v) > 0.2)
+
+
+def through_centre(direction, radius, sides=12):
+    """A straight pipe through (0.5, 0.5, 0.5), so any two of them overlap."""
+    d = 0.45 * np.asarray(direction) / np.linalg.norm(direction)
+    return Pipe([0.5 - d, 0.5 + d], radius, sides)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.lists(st.tuples(directions, st.floats(0.02, 0.1)), min_size=2, max_size=6))
+def test_union_of_overlapping_pipes_is_watertight_between_largest_and_sum(specs):
+    units = [np.asarray(d) / np.linalg.norm(d) for d, _ in specs]
+    assume(all(abs(u @ v) < 0.99 for i, u in enumerate(units) for v in units[i + 1:]))
+    meshes = [through_centre(d, r).mesh() for d, r in specs]
+    asm = Assembly()
+    for i, mesh in enumerate(meshes):
+        asm.add(f"pipe{i}", mesh)
+    solid = asm.union()
+    volumes = [m.volume for m in meshes]
+    assert solid.is_watertight and solid.is_outward and solid.n_bodies == 1
+    assert max(volumes) < solid.volume < sum(volumes)
+
+
+def test_every_triangle_keeps_its_part_name_and_part_areas_add_up():
+    a = through_centre((1, 0, 0), 0.1)
+    b = through_centre((0, 1, 0.3), 0.08)
+    far = primitives.box(0.2)
+    asm = (Assembly().add("a", a).add("b", b)
+           .add("far", far, transform=placement(translate=(3, 0, 0)))
+           .subtract("hole", primitives.cylinder(0.03, 2.0, 16),
+                     transform=placement(translate=(0.5, 0.5, 0.5))))
+    solid = asm.union()
+    assert solid.face_part is not None and len(solid.face_part) == len(solid.faces)
+    assert set(solid.part_names) == {"a", "b", "far", "hole"}
+    per_part = dict(zip(solid.part_names,
+                        np.bincount(solid.face_part, weights=solid.face_areas,
+                                    minlength=len(solid.part_names))))
+    assert sum(per_part.values()) == pytest.approx(solid.area, rel=1e-12)
+    # a union only removes surface; the untouched box keeps all of its own
+    assert per_part["a"] < a.mesh().area and per_part["b"] < b.mesh().area
+    assert per_part["far"] == pytest.approx(far.area, rel=1e-12)
+    assert per_part["hole"] > 0                        # the bore's wall comes from the cutter
+
+
+def manifold_of(mesh, transform=None):
+    solid = mesh.to_manifold()
+    return solid if transform is None else solid.transform(transform[:3])
+
+
+@pytest.mark.parametrize("op", ["subtract", "intersect"])
+def test_difference_and_intersection_agree_with_manifold3d(op):
+    body = through_centre((1, 0.2, 0), 0.15, 24).mesh()
+    tool = primitives.sphere(0.25, 32)
+    move = placement(translate=(0.6, 0.5, 0.5), rotate=(10, 20, 30))
+    asm = Assembly().add("body", body)
+    getattr(asm, op)("tool", tool, transform=move)
+    ours = asm.union()
+    a, b = manifold_of(body), manifold_of(tool, move)
+    direct = a - b if op == "subtract" else a ^ b
+    assert ours.is_watertight
+    assert ours.volume == pytest.approx(direct.volume(), rel=1e-9)
+    assert ours.area == pytest.approx(direct.surface_area(), rel=1e-9)
+    assert set(np.asarray(ours.part_names)[np.unique(ours.face_part)]) == {"body", "tool"}
+
+
+def test_order_of_calls_does_not_change_the_solid():
+    a, b = through_centre((1, 0, 0), 0.1).mesh(), through_centre((0, 0, 1), 0.1).mesh()
+    hole = primitives.sphere(0.12, 24).transformed(placement(translate=(0.5, 0.5, 0.5)))
+    first = Assembly().add("a", a).subtract("hole", hole).add("b", b).union()
+    second = Assembly().subtract("hole", hole).add("b", b).add("a", a).union()
+    assert first.volume == pytest.approx(second.volume, rel=1e-12)
+
+
+def test_mirroring_transform_keeps_the_solid_outward():
+    pipe = Pipe([[0, 0, 0], [1, 0.3, 0.2]], 0.1)
+    solid = Assembly().add("p", pipe, transform=np.diag([-1.0, 1, 1, 1])).union()
+    assert solid.is_outward and solid.volume == pytest.approx(pipe.mesh().volume, rel=1e-9)
+
+
+def test_scene_in_parts_mode_keeps_transforms_colours_and_cuts():
+    hollow = HollowPipe(Pipe([[0, 0, 0], [1, 0, 0]], 0.1, 16), 0.02)
+    move = placement(translate=(0, 0, 2))
+    asm = (Assembly(units="mm", name="cell")
+           .add("duct", hollow, transform=move, color="#ff0000")
+           .add("block", primitives.box(0.5), color=(0, 0, 1))
+           .subtract("notch", primitives.box(0.2), transform=placement(translate=(0.25, 0, 0))))
+    scene = asm.to_scene("parts")
+    assert (scene.name, scene.units) == ("cell", "mm")
+    parts = {p.name: p for p in scene.parts}
+    assert set(parts) == {"duct", "block"}
+    np.testing.assert_array_equal(parts["duct"].transform, move)
+    assert parts["duct"].color == (1.0, 0.0, 0.0)
+    assert parts["duct"].attributes["kind"] == "hollow pipe"
+    # each part on its own, already cut: the duct is hollow, the block notched
+    assert parts["duct"].mesh.volume == pytest.approx(hollow.mesh().volume, rel=1e-9)
+    assert parts["block"].mesh.volume == pytest.approx(0.125 - 0.1 * 0.2 * 0.2, rel=1e-9)
+    solid_scene = asm.to_scene("solid")
+    assert len(solid_scene.parts) == 1 and solid_scene.parts[0].mesh is asm.union()
+    assert dict(solid_scene.colors) == {"duct": (1.0, 0.0, 0.0), "block": (0.0, 0.0, 1.0)}
+
+
+def test_export_writes_the_unioned_solid_to_stl(tmp_path):
+    a, b = through_centre((1, 0, 0), 0.1), through_centre((0, 1, 0), 0.1)
+    asm = Assembly().add("a", a).add("b", b)
+    path = asm.export(tmp_path / "cell.stl")
+    back = cadpipe.Mesh.load(path)
+    assert back.is_watertight and back.volume == pytest.approx(asm.union().volume, rel=1e-6)
+
+
+def test_assembly_results_are_cached_and_reset_by_new_parts():
+    asm = Assembly().add("a", through_centre((1, 0, 0), 0.1))
+    first = asm.union()
+    assert asm.union() is first
+    asm.add("b", through_centre((0, 1, 0), 0.1))
+    assert asm.union() is not first and asm.union().volume > first.volume
+
+
+def test_manifold_ids_of_parts_are_unique_across_assemblies():
+    one = Assembly().add("x", primitives.box(1.0)).union()
+    two = Assembly().add("y", primitives.box(1.0)).union()
+    assert one.part_names == ("x",) and two.part_names == ("y",)
+
+
+@pytest.mark.parametrize("build, error, match", [
+    (lambda a: a.add("a", primitives.box(1)).add("a", primitives.box(1)), cadpipe.InputError,
+     "already in the assembly"),
+    (lambda a: a.add("", primitives.box(1)), cadpipe.InputError, "non-empty string"),
+    (lambda a: a.add("x", "box"), cadpipe.InputError, "expected a Mesh, Pipe"),
+    (lambda a: a.add("x", primitives.box(1), transform=np.eye(3)), cadpipe.InputError,
+     "x: transform: expected a finite 4x4"),
+    (lambda a: a.add("x", primitives.box(1), color="#12"), cadpipe.InputError, "color"),
+    (lambda a: a.subtract("x", primitives.box(1)).union(), cadpipe.InputError,
+     "add at least one part"),
+    (lambda a: a.add("x", primitives.box(1)).intersect(
+        "y", primitives.box(1), transform=placement(translate=(5, 0, 0))).union(),
+     cadpipe.GeometryError, "nothing is left"),
+    (lambda a: a.add("lid", cadpipe.Mesh(primitives.box(1).vertices,
+                                         primitives.box(1).faces[1:])).union(),
+     cadpipe.MeshError, "lid: not a closed solid"),
+])
+def test_bad_assemblies_raise_named_errors(build, error, match):
+    with pytest.raises(error, match=match):
+        build(Assembly())
+
+
+def test_units_must_be_known():
+    with pytest.raises(cadpipe.InputError, match="units"):
+        Assembly(units="furlong")
+
+
+def test_parts_whose_boxes_overlap_nothing_skip_boolean_work(monkeypatch):
+    real = manifold3d.Manifold.batch_boolean
+    sizes = []
+
+    def spy(solids, op):
+        sizes.append((len(solids), op))
+        return real(solids, op)
+
+    monkeypatch.setattr(manifold3d.Manifold, "batch_boolean", staticmethod(spy))
+    unit = primitives.box(1.0)
+    asm = Assembly()
+    for k in range(5):                                   # five cubes in a row, 1 apart
+        asm.add(f"cube{k}", cadpipe.Mesh(unit.vertices + [2.0 * k, 0, 0], unit.faces))
+    asm.add("a", through_centre((1, 0, 0), 0.1).mesh(), transform=placement(translate=(0, 5, 0)))
+    asm.add("b", through_centre((0, 1, 0), 0.1).mesh(), transform=placement(translate=(0, 5, 0)))
+    solid = asm.union()
+    assert solid.n_bodies == 6
+    # one real union (the two crossing pipes); singletons pass through untouched
+    unions = [n for n, op in sizes if op == manifold3d.OpType.Add and n > 1]
+    assert unions[:-1] == [2] and unions[-1] == 6        # the last call composes the pieces
+    per_cube = np.bincount(solid.face_part)[:5]
+    assert per_cube.tolist() == [len(unit.faces)] * 5    # the cubes' triangles are unchanged

@@ -1,0 +1,138 @@
+"""``cadpipe check`` and :func:`cadpipe.check_mesh`: the right verdict on good and broken solids."""
+
+import json
+import subprocess
+import sys
+
+import fcl
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import cadpipe
+from cadpipe.cli import main
+from cadpipe.intersect import box_pairs, self_intersections
+
+
+def straight_pipe(length=2.0, radius=0.25, sides=12):
+    return cadpipe.Pipe([[0, 0, 0], [length, 0, 0]], radius, sides=sides).mesh()
+
+
+def prism_volume(length, radius, sides):
+    return 0.5 * sides * radius**2 * np.sin(2 * np.pi / sides) * length
+
+
+def test_watertight_pipe_is_a_valid_solid():
+    report = cadpipe.check_mesh(straight_pipe())
+    assert report["valid"] and report["problems"] == []
+    assert report["watertight"] and report["winding_consistent"] and report["outward"]
+    assert report["bodies"] == 1 and report["self_intersections"] == 0
+    assert report["volume"] == pytest.approx(prism_volume(2.0, 0.25, 12), rel=1e-12)
+    np.testing.assert_allclose(report["bounds"], [[0, -0.25, -0.25], [2, 0.25, 0.25]],
+                               atol=1e-12)
+
+
+def test_a_hole_is_reported():
+    mesh = straight_pipe()
+    report = cadpipe.check_mesh(cadpipe.Mesh(mesh.vertices, mesh.faces[1:]))
+    assert not report["valid"] and not report["watertight"]
+    assert report["boundary_edges"] == 3
+    assert any("holes" in p for p in report["problems"])
+
+
+def test_inward_faces_are_reported():
+    mesh = straight_pipe()
+    report = cadpipe.check_mesh(cadpipe.Mesh(mesh.vertices, mesh.faces[:, ::-1]))
+    assert not report["valid"] and report["watertight"] and not report["outward"]
+    assert any("inward" in p for p in report["problems"])
+
+
+def test_one_flipped_face_breaks_the_winding():
+    faces = straight_pipe().faces.copy()
+    faces[0] = faces[0, ::-1]
+    report = cadpipe.check_mesh(cadpipe.Mesh(straight_pipe().vertices, faces))
+    assert not report["valid"] and not report["winding_consistent"]
+
+
+def crossing_pipes(offset):
+    """A bent pipe and a straight one through it (not unioned), ``offset`` along z."""
+    bent = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [1, 0, 0], [1, 1, 0.5], [0, 1, 1]],
+                                            step=0.05), 0.1, sides=12).mesh()
+    rod = cadpipe.Pipe([[0.5, -1, offset], [0.5, 1, offset + 0.01]], 0.05, sides=8).mesh()
+    return bent, rod
+
+
+def _fcl_object(mesh):
+    model = fcl.BVHModel()
+    model.beginModel(len(mesh.vertices), len(mesh.faces))
+    model.addSubModel(mesh.vertices, mesh.faces)
+    model.endModel()
+    return fcl.CollisionObject(model, fcl.Transform())
+
+
+@settings(max_examples=15, deadline=None)
+@given(offset=st.floats(-0.2, 0.2))
+def test_self_intersections_agree_with_fcl(offset):
+    bent, rod = crossing_pipes(offset)
+    both = cadpipe.Mesh.concatenate([bent, rod])
+    request = fcl.CollisionRequest(num_max_contacts=100_000, enable_contact=True)
+    result = fcl.CollisionResult()
+    fcl.collide(_fcl_object(bent), _fcl_object(rod), request, result)
+    reference = {(c.b1, c.b2 + len(bent.faces)) for c in result.contacts}
+    assert {tuple(p) for p in self_intersections(both).tolist()} == reference
+
+
+def test_crossing_parts_are_reported():
+    report = cadpipe.check_mesh(cadpipe.Mesh.concatenate(crossing_pipes(0.0)))
+    assert not report["valid"] and report["watertight"] and report["bodies"] == 2
+    assert report["self_intersections"] > 0
+    assert any("cut through" in p for p in report["problems"])
+
+
+@settings(max_examples=20, deadline=None)
+@given(boxes=st.integers(1, 300), seed=st.integers(0, 2**32 - 1))
+def test_box_pairs_match_brute_force(boxes, seed):
+    rng = np.random.default_rng(seed)
+    lo = rng.uniform(0, 10, (boxes, 3))
+    hi = lo + rng.uniform(0, 2, (boxes, 3))
+    found = [tuple(sorted(p)) for chunk in box_pairs(lo, hi) for p in chunk.tolist()]
+    overlap = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
+    expected = {(i, j) for i, j in zip(*np.nonzero(np.triu(overlap, 1)))}
+    assert len(found) == len(set(found)) and set(found) == expected
+
+
+# -- the command -----------------------------------------------------------------
+@pytest.mark.parametrize("suffix", ["stl", "3mf", "obj", "ply", "glb"])
+def test_check_accepts_a_watertight_pipe_in_any_format(tmp_path, capsys, suffix):
+    target = straight_pipe().export(tmp_path / f"pipe.{suffix}")
+    assert main(["check", str(target)]) == 0
+    out = capsys.readouterr().out
+    assert "valid closed solid" in out and "NOT" not in out
+
+
+def test_check_rejects_a_mesh_with_a_hole(tmp_path, capsys):
+    mesh = straight_pipe()
+    target = cadpipe.Mesh(mesh.vertices, mesh.faces[1:]).export(tmp_path / "holed.stl")
+    assert main(["check", str(target), "--json"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    assert report["valid"] is False and report["boundary_edges"] == 3
+    assert report["file"] == str(target)
+
+
+def test_check_of_a_missing_file_is_one_line(tmp_path, capsys):
+    assert main(["check", str(tmp_path / "nowhere.stl")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cadpipe check: error:") and "no such file" in err
+    assert "\n" not in err
+
+
+def test_check_exit_codes_from_a_real_process(tmp_path):
+    good = straight_pipe().export(tmp_path / "good.stl")
+    mesh = straight_pipe()
+    bad = cadpipe.Mesh(mesh.vertices, mesh.faces[1:]).export(tmp_path / "bad.stl")
+    command = [sys.executable, "-m", "cadpipe", "check", "--json"]
+    ok = subprocess.run(command + [str(good)], capture_output=True, text=True)
+    broken = subprocess.run(command + [str(bad)], capture_output=True, text=True)
+    assert (ok.returncode, broken.returncode) == (0, 1)
+    assert json.loads(ok.stdout)["valid"] and not json.loads(broken.stdout)["valid"]
