@@ -12,10 +12,13 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ._vec import dot, norm
+from .errors import InputError
 from .ragged import Groups
 
 #: findings reported per tube and kind of fold
 MAX_FINDINGS = 10
+#: path samples a batch may need (each a quarter of its tube's smallest radius apart)
+MAX_SAMPLES = 10_000_000
 
 
 def tube_self_intersections(tubes):
@@ -94,7 +97,13 @@ def _samples(tubes, step):
     groups = lines.groups
     closed = groups.closed
     length = lines.lengths
-    count = np.maximum(np.ceil(length / step).astype(np.int64), 2)
+    count = np.maximum(np.ceil(length / step), 2)
+    if count.sum() > MAX_SAMPLES:
+        g = int(np.argmax(count))
+        raise InputError(f"radius: {4 * step[g]:g} is too small for a path {length[g]:.6g} long: "
+                         f"checking the tube for self-intersection would take {count[g]:.3g} "
+                         "samples; use a larger radius or a shorter path")
+    count = count.astype(np.int64)
     samples = Groups(count, closed)
     k = samples.local()
     s = k * samples.spread(length / np.where(closed, count, count - 1))

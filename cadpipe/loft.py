@@ -192,7 +192,7 @@ def _write_rings(runs, sides, out):
 
 def _write_bands(band_first, sides, out):
     """Side faces of bands whose first ring starts at vertex ``band_first``."""
-    np.add(band_first[:, None], _band_pattern(sides), out=out.reshape(len(band_first), -1))
+    np.add(band_first[:, None], _band_pattern(sides), out=out.reshape(len(band_first), 6 * sides))
 
 
 def write_fan(ring, sides, apex, at_end, out):

@@ -34,7 +34,7 @@ class Path:
         Whether the last point connects back to the first.
     """
 
-    __slots__ = ("_points", "_xyz", "_closed", "__dict__")
+    __slots__ = ("_points", "_xyz", "_closed", "_tolerance", "__dict__")
 
     def __init__(self, points, closed=False):
         pts = as_points(points, "points", min_count=2)
@@ -56,6 +56,7 @@ class Path:
         self._points = pts
         self._xyz = np.ascontiguousarray(xyz)
         self._closed = bool(closed)
+        self._tolerance = tol                     # points closer than this are one point
 
     def __repr__(self):
         kind = "closed" if self._closed else "open"
@@ -198,7 +199,7 @@ class Path:
             raise GeometryError(f"cannot trim {start:g} and {end:g} off a path "
                                 f"{self.length:.6g} long; the pipe is too short")
         arc = self.arc_length
-        tol = 2 * DUPLICATE_TOLERANCE * max(float(np.ptp(self._points, axis=0).max()), 1.0)
+        tol = 2 * self._tolerance
         inner = (arc > lo + tol) & (arc < hi - tol)     # keep the cut points distinct
         s = np.concatenate([[lo], arc[inner], [hi]])
         pts = np.stack([np.interp(s, arc, self._points[:, c]) for c in range(3)], axis=1)

@@ -106,6 +106,9 @@ class Pipe:
         self.cap_segments = as_int(max(2, self.sides // 4) if cap_segments is None
                                    else cap_segments, "cap_segments", low=1, high=MAX_SIDES)
         radii = np.broadcast_to(radii, (len(source),))
+        if float(radii.min()) <= source._tolerance:
+            raise InputError(f"radius: {radii.min():g} is too small for this path, whose points "
+                             f"closer than {source._tolerance:g} count as one; use a larger radius")
         if self.corners == "round":
             bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
             self.bend_radius = float(as_positive(bend, "bend_radius"))

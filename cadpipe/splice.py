@@ -64,7 +64,7 @@ def splice(*pipes, transition="lcm", closed=False):
     if len(pipes) == 1 and not closed:
         return pipes[0].mesh().with_parts(["pipe0"])
     before, after = _junctions(len(pipes), closed)
-    pipes, tubes = _make_room(list(pipes), tubes_of(pipes), before, after)
+    pipes, tubes = _room_for_transitions(list(pipes), tubes_of(pipes), before, after)
     for i, problems in enumerate(tubes.self_intersections()):
         if problems:
             raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}")
@@ -94,7 +94,13 @@ def _junctions(count, closed):
     return before, (before + 1) % count
 
 
-def _make_room(pipes, tubes, before, after):
+def _make_room(pipes, closed):
+    """The pipes, those whose ends touch trimmed to leave room for a transition (as
+    :func:`splice` does, so other chains can follow the same ends)."""
+    return _room_for_transitions(pipes, tubes_of(pipes), *_junctions(len(pipes), closed))[0]
+
+
+def _room_for_transitions(pipes, tubes, before, after):
     """Pipes whose ends touch give up a little length for the transition between them.
 
     Returns the pipes and their batch, rebuilt if any pipe was trimmed.

@@ -203,3 +203,12 @@ def test_mesh_interop_with_trimesh_and_manifold():
     back = cadpipe.Mesh.from_manifold(mesh.to_manifold())
     assert back.volume == pytest.approx(mesh.volume, rel=1e-9)
     assert isinstance(mesh.to_manifold(), manifold3d.Manifold)
+
+
+def test_radius_below_the_path_resolution_or_too_thin_to_check_is_refused():
+    # 1e-127 of a unit path: every ring vertex rounds onto the axis
+    with pytest.raises(InputError, match="radius"):
+        Pipe([[0, 0.75, 0], [0, 0, 1]], 5.9e-127, sides=3)
+    # representable, but checking it for self-intersection would take 4e10 samples
+    with pytest.raises(InputError, match="samples"):
+        Pipe([[0, 0, 0], [100, 0, 0]], 1e-8).mesh()
