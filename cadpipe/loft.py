@@ -160,8 +160,8 @@ class Surface:
                 _write_rings, [runs[i] for i in members.tolist()], size))
             bands = Groups(n - 1)
             band_first = bands.spread(starts) + size * bands.local()
-            part = None if parts is None else np.repeat(np.asarray(parts)[members],
-                                                        (n - 1) * 2 * size)
+            part = None if parts is None else np.repeat(
+                np.asarray(parts, np.int32)[members], (n - 1) * 2 * size)
             self.add_faces(bands.size * 2 * size, partial(_write_bands, band_first, size), part)
         for i in np.flatnonzero(closed).tolist():
             self.add_faces(2 * int(sides[i]), partial(
@@ -185,9 +185,12 @@ class Surface:
 
 
 def _write_rings(runs, sides, out):
-    """Ring vertices of same-size runs, one batched matrix product for all of them."""
-    axes = runs[0] if len(runs) == 1 else np.concatenate(runs)
-    np.matmul(ring_basis(sides), axes, out=out.reshape(len(axes), sides, 3))
+    """Ring vertices of same-size runs, one after another: a batched matrix product
+    per run, straight into ``out`` (gathering the runs' axes first costs more)."""
+    basis, rings, first = ring_basis(sides), out.reshape(-1, sides, 3), 0
+    for axes in runs:
+        np.matmul(basis, axes, out=rings[first:first + len(axes)])
+        first += len(axes)
 
 
 def _write_bands(band_first, sides, out):

@@ -190,4 +190,5 @@ def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
     offset = np.concatenate([np.zeros(len(n1) + int(two.sum())), -bridges.seam_shift * n2 / n3])
     labels = np.concatenate([part, part[two], part])
     surface.add_faces(int((n_a + n_b).sum()), lambda out: np.copyto(
-        out, zipper_faces(a_start, n_a, b_start, n_b, offset)), np.repeat(labels, n_a + n_b))
+        out, zipper_faces(a_start, n_a, b_start, n_b, offset)),
+                      np.repeat(labels.astype(np.int32), n_a + n_b))
