@@ -11,7 +11,7 @@ tubes' samples.
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ._vec import dot, norm
+from ._vec import norm
 from .errors import InputError
 from .ragged import Groups
 

@@ -107,8 +107,9 @@ class Pipe:
                                    else cap_segments, "cap_segments", low=1, high=MAX_SIDES)
         radii = np.broadcast_to(radii, (len(source),))
         if float(radii.min()) <= source._tolerance:
-            raise InputError(f"radius: {radii.min():g} is too small for this path, whose points "
-                             f"closer than {source._tolerance:g} count as one; use a larger radius")
+            raise InputError(f"radius: {radii.min():g} is too small for this path, whose "
+                             f"points closer than {source._tolerance:g} count as one; use a "
+                             "larger radius")
         if self.corners == "round":
             bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
             self.bend_radius = float(as_positive(bend, "bend_radius"))
@@ -302,7 +303,8 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
     firsts, lasts = groups.first.tolist(), groups.last.tolist()
     runs = [tubes.axes[a:b + 1] for a, b in zip(firsts, lasts)]
     # caps: at most the two ends of a chain, or a lone pipe's
-    capped = [g for g, pipe in enumerate(pipes) if (cap_start[g] or cap_end[g]) and not pipe.closed]
+    capped = [g for g, pipe in enumerate(pipes)
+              if (cap_start[g] or cap_end[g]) and not pipe.closed]
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
     for g in capped:
         pipe = pipes[g]
@@ -315,7 +317,8 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
                                       run[:0] if end is None else end[0]])
             rings_before[g] = 0 if start is None else len(start[0])
         caps[g] = (start, end)
-    first = surface.add_rings(runs, sides, parts, closed=groups.closed, seam_shift=tubes.seam_shift)
+    first = surface.add_rings(runs, sides, parts, closed=groups.closed,
+                              seam_shift=tubes.seam_shift)
     for g in capped:
         n, part = int(sides[g]), None if parts is None else int(parts[g])
         for wanted, cap, ring, at_end in (

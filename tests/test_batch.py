@@ -154,7 +154,8 @@ def test_surface_groups_runs_by_size_and_keeps_each_run():
         rings = np.matmul(ring_basis(size), run).reshape(-1, 3)
         assert np.array_equal(vertices[start:start + len(rings)], rings)
     assert len(faces) == sum(2 * s * (len(r) - 1) for r, s in zip(runs, sides))
-    assert np.array_equal(np.unique(faces), np.arange(len(vertices) - 7))    # all but the lone ring
+    # every vertex is used but the lone ring's
+    assert np.array_equal(np.unique(faces), np.arange(len(vertices) - 7))
 
 
 def test_single_pipe_surface_is_laid_out_as_documented():
