@@ -294,22 +294,34 @@ class Polylines:
         self.groups = groups
 
     @cached_property
-    def segments(self):
+    def _segments(self):
+        """(8, N): segment (rows 0-2), unit direction (3-5), length (6) and arc length
+        from the polyline's start (7) at every point, in one allocation (large enough
+        for the kernel's huge pages: a few page faults instead of thousands)."""
         p, g = self.xyz, self.groups
-        out = np.empty_like(p)
-        np.subtract(p[:, 1:], p[:, :-1], out=out[:, :-1])
+        out = np.empty((8, g.size))
+        segments = out[0:3]
+        np.subtract(p[:, 1:], p[:, :-1], out=segments[:, :-1])
         last = g.last
-        out[:, last] = np.where(g.closed, p[:, g.first] - p[:, last], out[:, last - 1])
+        segments[:, last] = np.where(g.closed, p[:, g.first] - p[:, last],
+                                     segments[:, last - 1])
+        np.sqrt(dot(segments, segments, 0), out=out[6])
+        np.divide(segments, out[6], out=out[3:6])
+        g.exclusive_cumsum(out[6], out=out[7])
         return out
 
-    @cached_property
-    def segment_lengths(self):
-        return norm(self.segments, 0)
+    @property
+    def segments(self):
+        return self._segments[0:3]
 
-    @cached_property
+    @property
+    def segment_lengths(self):
+        return self._segments[6]
+
+    @property
     def directions(self):
         """(3, N) unit direction of each segment: the outgoing direction at each point."""
-        return self.segments / self.segment_lengths
+        return self._segments[3:6]
 
     @property
     def incoming(self):
@@ -317,10 +329,10 @@ class Polylines:
         polyline's first point takes its outgoing direction)."""
         return self.groups.preceding(self.directions)
 
-    @cached_property
+    @property
     def arc_length(self):
         """(N,) distance along each polyline from its first point."""
-        return self.groups.exclusive_cumsum(self.segment_lengths)
+        return self._segments[7]
 
     @cached_property
     def lengths(self):

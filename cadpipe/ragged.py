@@ -115,9 +115,9 @@ class Groups:
         """(G,) sum of ``values`` over each item's rows."""
         return np.add.reduceat(values, self.first)
 
-    def exclusive_cumsum(self, values):
+    def exclusive_cumsum(self, values, out=None):
         """Running sum within each item of the rows before each row (0 at each first row)."""
-        out = np.empty(self.size)
+        out = np.empty(self.size) if out is None else out
         out[0] = 0.0
         np.cumsum(values[:-1], out=out[1:])
         out -= self.spread(out[self.first])
