@@ -8,7 +8,7 @@ from ..cli import command
 
 
 def _arguments(parser):
-    parser.add_argument("spec", metavar="SPEC", help="robot cell file (.toml or .json)")
+    parser.add_argument("spec", metavar="SPEC", help="spec file of the cell (.toml or .json)")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--svg", metavar="DIR",
                         help="write a separation certificate (SVG) for every pair whose boxes "
@@ -19,11 +19,13 @@ def _safe(name):
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
 
 
-@command("collide", "Check a robot cell (TOML/JSON) for collisions.", _arguments)
+@command("collide", "Check the parts and robot of a spec file (TOML/JSON) for collisions.", _arguments)
 def collide(args):
-    from ..collision.cell import load_cell
+    from ..collision import world_from_spec
+    from ..spec import read
 
-    world, options = load_cell(args.spec)
+    spec = read(args.spec)
+    world, options = world_from_spec(spec), dict(spec.cell.check)
     if args.svg:
         options["certify"] = True
     report = world.check(**options)
