@@ -7,7 +7,6 @@ sum of their radii. All three are vectorized over the path.
 """
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ._vec import dot, norm
 
@@ -61,6 +60,8 @@ def _distant_overlaps(pipe):
     Samples every quarter of the smallest radius keep the detection error to a few
     thousandths of the radius.
     """
+    from scipy.spatial import cKDTree      # imported here: the CLI starts faster without it
+
     path = pipe.path
     rho = pipe.ring_radii
     step = 0.25 * float(rho.min())

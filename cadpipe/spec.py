@@ -148,7 +148,12 @@ def _points(value, key):
 
 def _csv_points(file, key):
     """Rows ``x,y,z`` of a CSV file; a header row and ``#`` comments are skipped."""
-    rows = [line for line in file.read_text().splitlines()
+    try:
+        text = file.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{key}: {file.name}: not a text file; expected rows of x,y,z "
+                         "numbers") from None
+    rows = [line for line in text.splitlines()
             if line.strip() and not line.lstrip().startswith("#")]
     if rows and any(c.isalpha() for c in rows[0].replace("e", "").replace("E", "")):
         rows = rows[1:]
@@ -250,7 +255,8 @@ class Spec:
 
 def _parse(file):
     if not file.is_file():
-        raise SpecError(f"{file}: no such spec file")
+        raise SpecError(f"{file}: is a folder, not a spec file" if file.is_dir() else
+                        f"{file}: no such spec file")
     suffix = file.suffix.lower()
     try:
         if suffix == ".toml":

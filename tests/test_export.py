@@ -357,7 +357,7 @@ def test_float32_decimal_reads_back_to_the_same_float32(values):
 def test_target_in_a_missing_folder_leaves_nothing(tmp_path, suffix):
     blocker = tmp_path / "not-a-folder"
     blocker.write_text("a file where a folder should be")
-    with pytest.raises(ExportError, match="does not exist"):
+    with pytest.raises(ExportError, match="not-a-folder is a file, not a folder"):
         export(bent_pipe().mesh(), blocker / f"pipe.{suffix}")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["not-a-folder"]
 

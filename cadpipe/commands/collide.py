@@ -1,8 +1,7 @@
-"""``cadpipe collide``: check a robot cell file for collisions."""
+"""``cadpipe collide``: check the robot cell a spec file describes for collisions."""
 
 import json
 import re
-from pathlib import Path as FilePath
 
 from ..cli import command
 
@@ -22,6 +21,7 @@ def _safe(name):
 @command("collide", "Check the parts and robot of a spec file (TOML/JSON) for collisions.", _arguments)
 def collide(args):
     from ..collision import world_from_spec
+    from ..exporters import ensure_folder
     from ..spec import read
 
     spec = read(args.spec)
@@ -31,8 +31,7 @@ def collide(args):
     report = world.check(**options)
     written = []
     if args.svg:
-        folder = FilePath(args.svg)
-        folder.mkdir(parents=True, exist_ok=True)
+        folder = ensure_folder(args.svg)
         for pair in report.pairs:
             if pair.certificate is not None:
                 target = folder / f"{_safe(pair.a)}__{_safe(pair.b)}.svg"
