@@ -17,11 +17,11 @@ Run: .venv/bin/python benchmarks/bench_collision.py [--configs N]
 import argparse
 import time
 
+import fcl
 import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
-import fcl
 from cadpipe import CollisionWorld, Mesh, Path, Pipe
 from cadpipe.collision import Joint, Robot
 from cadpipe.collision.bodies import as_body

@@ -4,17 +4,17 @@ The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
 :class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then export.
 """
 
+from . import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
+from .assembly import Assembly
+from .collision import CollisionWorld
 from .errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
+from .hollow import HollowChain, HollowPipe, Junction
 from .inspect import check_mesh
 from .mesh import Mesh
 from .path import Path
 from .pipe import Pipe
-from .splice import splice
-from .collision import CollisionWorld
-from .assembly import Assembly
-from .hollow import HollowChain, HollowPipe, Junction
 from .spec import load
-from . import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
+from .splice import splice
 
 __version__ = "0.1.0"
 

@@ -11,8 +11,8 @@ from ._validate import as_positive
 from .errors import InputError
 from .hollow import HollowChain, HollowPipe, Junction
 from .pipe import Pipe
-from .splice import splice
 from .spec import Number
+from .splice import splice
 
 
 def pipe(ctx, *, path: list | str | dict, radius: Number | list, sides: int | None = None,

@@ -4,14 +4,6 @@ import subprocess
 import sys
 
 import cadpipe
-from cadpipe.cli import main
-
-
-def test_demo_writes_a_watertight_pipe(tmp_path, capsys):
-    assert main(["demo", "-o", str(tmp_path)]) == 0
-    mesh = cadpipe.Mesh.load(tmp_path / "parts.stl")
-    assert mesh.is_watertight and mesh.volume > 0
-    assert "wrote" in capsys.readouterr().out
 
 
 def test_python_m_cadpipe_reports_usage_errors_with_exit_2():

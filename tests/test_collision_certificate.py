@@ -3,11 +3,11 @@ verified, and never wrong (manifold3d finds zero intersection volume)."""
 
 from xml.etree import ElementTree
 
+import manifold3d
 import numpy as np
 import trimesh
 from scipy.spatial.transform import Rotation
 
-import manifold3d
 from cadpipe import CollisionWorld, Mesh, Pipe
 from cadpipe.collision import Sphere
 from cadpipe.collision.certificate import Certificate, verify

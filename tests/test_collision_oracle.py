@@ -7,13 +7,13 @@ Each fixture draws its poses at once from a seeded generator; the meshes are
 small so the whole file runs in a few seconds per fixture.
 """
 
+import fcl
+import manifold3d
 import numpy as np
 import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-import fcl
-import manifold3d
 from cadpipe import CollisionWorld, Mesh, Path, Pipe
 from cadpipe.collision import Box, Joint, Robot
 

@@ -6,8 +6,7 @@ import trimesh
 
 import cadpipe
 from cadpipe import CollisionWorld, InputError, Mesh, MeshError, Path, Pipe
-from cadpipe.collision import STAGES, Box, Capsule, Sphere
-from cadpipe.collision import bounds
+from cadpipe.collision import STAGES, Box, Capsule, Sphere, bounds
 
 
 def shift(x=0.0, y=0.0, z=0.0):

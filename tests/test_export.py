@@ -12,9 +12,9 @@ from importlib.metadata import entry_points
 import numpy as np
 import pytest
 import trimesh
-from scipy.spatial import cKDTree
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from scipy.spatial import cKDTree
 
 import cadpipe
 from cadpipe.errors import ExportError, InputError

@@ -2,8 +2,9 @@
 
 - **GLB** (VR, web viewers) keeps the scene: a root node named after the scene,
   one node per part with its transform (a part with several colours, a union,
-  gets a child node per colour), and a PBR material per colour. glTF is Y-up and in metres by definition, so the root node carries the
-  change from the scene's up axis and units; a viewer shows the part upright and
+  gets a child node per colour), and a PBR material per colour. glTF is Y-up and in
+  metres by definition, so the root node carries the change from the scene's up axis
+  and units; a viewer shows the part upright and
   life-size. Normals follow the crease angle (hard caps, smooth tubes).
 - **OBJ** and **PLY** hold one mesh: every part in world coordinates, in the
   scene's units and axes. PLY carries per-face colours; OBJ only geometry (colour
