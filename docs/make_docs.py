@@ -34,8 +34,13 @@ EXIT_CODES = {0: "success",
 #: example runs from the repository root (tests/test_docs.py runs them, in this order)
 COMMANDS = {
     "demo": {
-        "about": "Runs the built-in example end to end and prints a short summary and the "
-                 "files it wrote. `make demo` runs `cadpipe demo -o out/demo`.",
+        "about": "Runs the built-in welding cell end to end: a weld seam fitted as a spline, "
+                 "safety pipes with 6-, 8- and 12-gon mouths spliced through LCM transitions, "
+                 "a hollow printable tee, a posed six-axis arm, the collision report with a "
+                 "separation certificate. Writes `scene.usda`, `scene.usdz`, `parts.stl`, "
+                 "`scene.glb`, `report.json`, `preview.png`, `preview.html` and "
+                 "`certificate.svg` to the folder and prints a short summary. "
+                 "`make demo` runs `cadpipe demo -o out/demo`.",
         "examples": ["cadpipe demo -o out/demo"],
     },
     "build": {

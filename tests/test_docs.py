@@ -82,7 +82,7 @@ def test_every_code_block_runs(page, reader_folder, capsys):
     if page == "docs/quickstart.md":
         for written in ("pipe.stl", "pipe.usda", "duct.glb", "tee.stl", "tee.usda", "tee.png",
                         "tee.html", "duct_cable.svg", "preview/preview.png",
-                        "tee_from_spec.3mf", "demo"):
+                        "tee_from_spec.3mf", "certificates"):
             assert (reader_folder / written).exists(), written
         assert "COLLISION duct <-> fixture" in capsys.readouterr().out
 
