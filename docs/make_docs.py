@@ -125,9 +125,7 @@ def _usage_word(action):
 
 def _usage(prog, parser):
     """A one-line usage, options before positionals, as argparse writes it."""
-    actions = _options(parser)
-    ordered = [a for a in actions if a.option_strings] + \
-        [a for a in actions if not a.option_strings]
+    ordered = sorted(_options(parser), key=lambda a: not a.option_strings)   # stable
     return " ".join([prog, *map(_usage_word, ordered)])
 
 
@@ -137,8 +135,8 @@ def _table(parser):
         name = ", ".join(f"`{s}`" for s in action.option_strings) or \
             f"`{action.metavar or action.dest}`"
         meaning = (action.help or "") % {**vars(action), "prog": parser.prog}
-        rows.append(f"| {name} | {_value(action)} | {_default(action)} | "
-                    f"{meaning.replace('|', chr(92) + '|')} |")
+        meaning = meaning.replace("|", "\\|")                       # inside a table cell
+        rows.append(f"| {name} | {_value(action)} | {_default(action)} | {meaning} |")
     return rows
 
 
@@ -168,8 +166,10 @@ def cli_reference():
              "as the `cadpipe` console script; `python -m cadpipe` is the same command.",
              "",
              "```",
-             "cadpipe [-h] [--version] COMMAND ...",
+             _usage("cadpipe", parser) + " COMMAND ...",
              "```",
+             "",
+             *_table(parser),
              "",
              "| command | what it does |",
              "| --- | --- |"]
