@@ -329,14 +329,17 @@ class Mesh:
             vertices, faces = vertices[used], faces.reshape(-1, 3)
         if not part_names:
             return cls(vertices, faces, **kwargs)
-        names = list(dict.fromkeys(part_names.values()))
-        run_index = np.asarray(m.run_index, dtype=np.int64)
-        run_ids = np.asarray(m.run_original_id)
-        run_part = np.array([names.index(part_names[int(i)]) if int(i) in part_names else -1
-                             for i in run_ids], np.int32)
-        if (run_part < 0).any():
-            raise MeshError("boolean result has triangles from an unknown part")
-        face_part = np.repeat(run_part, np.diff(run_index) // 3)
+        run_ids = [int(i) for i in m.run_original_id]
+        unknown = [i for i in run_ids if i not in part_names]
+        if unknown:
+            raise MeshError(f"boolean result has triangles from an unknown part (id {unknown[0]})")
+        counts = np.diff(np.asarray(m.run_index, dtype=np.int64)) // 3
+        run_names = [part_names[i] for i in run_ids]
+        # only the parts that still have triangles label this mesh
+        present = {n for n, c in zip(run_names, counts) if c}
+        names = [n for n in dict.fromkeys(part_names.values()) if n in present]
+        index = {n: k for k, n in enumerate(names)}
+        face_part = np.repeat([index.get(n, -1) for n in run_names], counts).astype(np.int32)
         return cls(vertices, faces, face_part=face_part, part_names=names, **kwargs)
 
     # -- files ----------------------------------------------------------------

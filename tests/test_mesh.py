@@ -66,3 +66,10 @@ def test_bad_mesh_input(vertices, faces, word):
 def test_manifold_rejects_open_mesh_with_cadpipe_error(tube):
     with pytest.raises(MeshError, match="manifold3d rejected"):
         Mesh(tube.vertices, tube.faces[2:]).to_manifold("open part")
+
+
+def test_from_manifold_labels_only_the_parts_present(tube):
+    solid = tube.to_manifold().as_original()
+    mesh = Mesh.from_manifold(solid, part_names={solid.original_id(): "tube", 10 ** 6: "gone"})
+    assert mesh.part_names == ("tube",)
+    assert (mesh.face_part == 0).all()
