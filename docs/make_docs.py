@@ -62,10 +62,10 @@ COMMANDS = {
         "examples": ["cadpipe check out/tee.stl", "cadpipe check out/tee.stl --json"],
     },
     "collide": {
-        "about": "Loads a robot cell file and checks every pair of objects: self-collision "
-                 "of the robot's links first, then bounding volumes, then exact tests "
-                 "([collision.md](collision.md)). Prints each colliding pair with the stage "
-                 "that decided it and a count per stage.",
+        "about": "Reads a spec file ([spec.md](spec.md)) and checks every pair of its added "
+                 "parts and its robot's links: self-collision of the links first, then "
+                 "bounding volumes, then exact tests ([collision.md](collision.md)). Prints "
+                 "each colliding pair with the stage that decided it and a count per stage.",
         "exit": {0: "the check ran; colliding pairs are reported, not signalled by the exit "
                     "code"},
         "examples": ["cadpipe collide assets/examples/robot_cell.toml",
