@@ -20,7 +20,7 @@ import numpy as np
 
 from ._validate import as_choice
 from .booleans import as_solid, combine, reserve_ids, snap
-from .errors import GeometryError, InputError
+from .errors import CadpipeError, GeometryError, InputError
 from .mesh import Mesh
 from .scene import Scene, ScenePart, meters_per_unit, parse_color
 from .transform import as_matrix
@@ -138,7 +138,10 @@ class Assembly:
             return
         placed_parts, names = [], {}
         for part in self._parts.values():
-            shapes = part.shapes()
+            try:
+                shapes = part.shapes()
+            except CadpipeError as exc:       # e.g. a pipe that intersects itself
+                raise type(exc)(f"{part.name}: {exc}") from None
             ids = iter(reserve_ids(sum(map(len, shapes))))
             placed = []
             for kind, meshes in zip(("solid", "bore"), shapes):

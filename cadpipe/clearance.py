@@ -9,7 +9,6 @@ tubes' samples.
 """
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ._vec import norm
 from .errors import InputError
@@ -256,6 +255,8 @@ def _chunk_pairs(samples, points, reach, spacing, chunk, band):
     One KD-tree holds every tube's chunks, each tube scaled by that distance and laid
     apart from the others, so a single query radius finds each tube's own pairs.
     """
+    from scipy.spatial import cKDTree      # imported here: the CLI starts faster without it
+
     n = samples.counts
     chunks = Groups(-(-n // chunk), samples.closed)
     k = chunks.spread(chunk)

@@ -2,8 +2,10 @@
 
 One schema for both formats (see ``docs/spec.md``): ``name``, ``units``, ``parts``
 (each with a ``kind`` looked up in :data:`cadpipe.registry.part_kinds`), and
-``outputs``. Reading a spec only parses data and calls registered functions;
-nothing in it is executed.
+``outputs``; a robot cell adds ``robot`` (a posed URDF arm, whose links join the
+assembly as parts), ``allow`` and ``check``, which :func:`cadpipe.collision.world_from_spec`
+turns into a collision world. Reading a spec only parses data and calls registered
+functions; nothing in it is executed.
 
 A part kind is a function ``kind(ctx, *, key=default, ...)``: its keyword
 parameters are the keys a spec may give, and their annotations the accepted
@@ -20,7 +22,7 @@ import re
 import tomllib
 import typing
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -146,7 +148,12 @@ def _points(value, key):
 
 def _csv_points(file, key):
     """Rows ``x,y,z`` of a CSV file; a header row and ``#`` comments are skipped."""
-    rows = [line for line in file.read_text().splitlines()
+    try:
+        text = file.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{key}: {file.name}: not a text file; expected rows of x,y,z "
+                         "numbers") from None
+    rows = [line for line in text.splitlines()
             if line.strip() and not line.lstrip().startswith("#")]
     if rows and any(c.isalpha() for c in rows[0].replace("e", "").replace("E", "")):
         rows = rows[1:]
@@ -178,17 +185,20 @@ def _transform_table(ctx, *, translate: list | Number = (0, 0, 0),
     return placement(translate, rotate, scale)
 
 
+def _matrix(ctx, transform):
+    """A ``transform`` key's 4x4 matrix (None when absent): a matrix or a table."""
+    if isinstance(transform, dict):
+        return ctx.call(_transform_table, transform, "transform")
+    return None if transform is None else as_matrix(transform)
+
+
 def _placement(ctx, *, kind: str, name: str | None = None, op: str = "add",
                color: str | list | None = None, transform: list | dict | None = None):
     """The keys every part has: how it is named, placed, coloured and combined."""
     from .assembly import OPERATIONS
 
-    if isinstance(transform, dict):
-        transform = ctx.call(_transform_table, transform, "transform")
-    elif transform is not None:
-        transform = as_matrix(transform)
     return {"name": name, "op": as_choice(op, "op", OPERATIONS), "color": color,
-            "transform": transform}
+            "transform": _matrix(ctx, transform)}
 
 
 def _output(ctx, *, file: str, mode: str | None = None):
@@ -200,18 +210,53 @@ def _output(ctx, *, file: str, mode: str | None = None):
 
 
 @dataclass(frozen=True)
+class PosedRobot:
+    """The ``robot`` table: a loaded :class:`~cadpipe.collision.Robot`, its joint values
+    by name, its base pose (4x4, rigid; None: the origin), the group its links share
+    and their colour."""
+
+    robot: object
+    joints: dict
+    transform: np.ndarray
+    group: str
+    color: object = None
+
+    def link_poses(self):
+        """World pose of every link with geometry."""
+        return self.robot.link_poses(self.joints, self.transform)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """What a collision check needs besides the geometry (``cadpipe collide``).
+
+    ``objects`` names the spec's added parts (each one collision object), ``robot``
+    is a :class:`PosedRobot` or None, ``allow`` holds ``(a, b, reason)`` triples and
+    ``check`` the keyword arguments of :meth:`~cadpipe.CollisionWorld.check`.
+    """
+
+    objects: tuple
+    robot: PosedRobot = None
+    allow: tuple = ()
+    check: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Spec:
-    """A read spec: its file, the assembly it describes, and its outputs as
-    ``(path, mode)`` pairs (mode None: chosen by the suffix)."""
+    """A read spec: its file, the assembly it describes (the parts, then the robot's
+    posed links), its outputs as ``(path, mode)`` pairs (mode None: chosen by the
+    suffix), and its :class:`Cell`."""
 
     file: FilePath
     assembly: object
     outputs: tuple
+    cell: Cell
 
 
 def _parse(file):
     if not file.is_file():
-        raise SpecError(f"{file}: no such spec file")
+        raise SpecError(f"{file}: is a folder, not a spec file" if file.is_dir() else
+                        f"{file}: no such spec file")
     suffix = file.suffix.lower()
     try:
         if suffix == ".toml":
@@ -225,15 +270,40 @@ def _parse(file):
     raise SpecError(f"{file}: unknown spec format {file.suffix!r}; use .toml or .json")
 
 
-def _spec(ctx, *, parts: list, name: str | None = None, units: str = "m",
-          outputs: list = ()):
-    """The top-level table: an :class:`~cadpipe.Assembly` and its outputs."""
-    from .assembly import Assembly
+def _robot(ctx, *, urdf: str, srdf: str | None = None, joints: list | dict | None = None,
+           transform: list | dict | None = None, group: str | None = None,
+           color: str | list | None = None):
+    """``[robot]``: a URDF arm posed by ``joints`` on a rigid base ``transform``."""
+    from .collision.robot import Robot
+    from .transform import is_rigid
+
+    try:
+        robot = Robot.from_urdf(ctx.file_path(urdf, "urdf"),
+                                None if srdf is None else ctx.file_path(srdf, "srdf"))
+    except SpecError as exc:          # about the URDF or SRDF file: keep its own wording
+        raise InputError(str(exc)) from None
+    base = _matrix(ctx, transform)
+    if base is not None and not is_rigid(base):
+        raise InputError("transform: a robot's base only rotates and translates; "
+                         "remove scale")
+    values = robot.joint_values(joints)
+    return PosedRobot(robot, {k: values[k] for k in robot.actuated}, base,
+                      robot.name if group is None else group, color)
+
+
+def _allow(ctx, *, a: str, b: str, reason: str = "allowed in the spec"):
+    return a, b, reason
+
+
+def _check(ctx, *, stop_after_self: bool = False, certify: bool = False):
+    """``[check]``: options of :meth:`cadpipe.CollisionWorld.check`."""
+    return {"stop_after_self": stop_after_self, "certify": certify}
+
+
+def _add_parts(ctx, assembly, parts):
+    """Each table of ``parts`` built by its kind and added to ``assembly``."""
     from .registry import part_kinds
 
-    if not parts:
-        raise InputError("parts: expected at least one part")
-    assembly = Assembly(units=units, name=name or ctx.file.stem)
     for i, entry in enumerate(parts):
         key = f"parts[{i}]"
         if not isinstance(entry, dict):
@@ -247,15 +317,64 @@ def _spec(ctx, *, parts: list, name: str | None = None, units: str = "m",
         with ctx.keyed(key, common):
             getattr(assembly, place["op"])(place["name"] or f"{kind}-{i}", obj,
                                            place["transform"], place["color"])
+
+
+def _add_robot(ctx, assembly, table):
+    """The ``robot`` table read, and its posed links added to ``assembly`` as parts."""
+    if assembly.units != "m":
+        raise ctx.error("units", 'a spec with a robot is in metres, as URDF is; '
+                                 'set units = "m"')
+    posed = ctx.call(_robot, table, "robot")
+    taken = {p.name for p in assembly.parts}
+    for link, pose in posed.link_poses().items():
+        if link in taken:
+            raise ctx.error("robot", f"the robot's link {link!r} has the name of a part; "
+                                     "rename the part")
+        assembly.add(link, posed.robot.link_meshes[link], pose, posed.color)
+    return posed
+
+
+def _allowed_pairs(ctx, tables, names):
+    """``(a, b, reason)`` of each ``allow`` table, both ends among ``names``."""
+    pairs = []
+    for i, entry in enumerate(tables):
+        key = f"allow[{i}]"
+        pair = ctx.call(_allow, entry, key)
+        for end, which in zip(pair[:2], "ab"):
+            if end not in names:
+                raise ctx.error(f"{key}.{which}",
+                                f"unknown object {end!r}; objects (added parts and robot "
+                                f"links): {', '.join(sorted(names))}")
+        if pair[0] == pair[1]:
+            raise ctx.error(f"{key}.b", "an object cannot collide with itself")
+        pairs.append(pair)
+    return tuple(pairs)
+
+
+def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
+          outputs: list = (), robot: dict | None = None, allow: list = (),
+          check: dict | None = None):
+    """The top-level table: an :class:`~cadpipe.Assembly`, its outputs and its cell."""
+    from .assembly import Assembly
+
+    if not parts and robot is None:
+        raise InputError("parts: expected at least one part")
+    assembly = Assembly(units=units, name=name or ctx.file.stem)
+    _add_parts(ctx, assembly, parts)
+    objects = tuple(p.name for p in assembly.parts if p.op == "add")
+    posed = None if robot is None else _add_robot(ctx, assembly, robot)
+    names = set(objects) | set(posed.robot.link_meshes if posed else ())
+    cell = Cell(objects, posed, _allowed_pairs(ctx, allow, names),
+                ctx.call(_check, {} if check is None else check, "check"))
     made = []
     for i, out in enumerate(outputs):
         made.append(ctx.call(_output, {"file": out} if isinstance(out, str) else out,
                              f"outputs[{i}]"))
-    return Spec(ctx.file, assembly, tuple(made))
+    return Spec(ctx.file, assembly, tuple(made), cell)
 
 
 def read(spec_path):
-    """Read a TOML or JSON spec into a :class:`Spec` (assembly and outputs).
+    """Read a TOML or JSON spec into a :class:`Spec` (assembly, outputs and cell).
 
     Raises :class:`SpecError` naming the file, the key path and what was expected.
     """

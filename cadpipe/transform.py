@@ -21,6 +21,13 @@ def as_matrix(value, name="transform"):
     return matrix
 
 
+def is_rigid(matrix):
+    """Whether a 4x4 ``matrix`` only rotates and translates (no scale, shear or mirror)."""
+    rot = matrix[:3, :3]
+    return bool(np.abs(matrix[3] - (0.0, 0.0, 0.0, 1.0)).max() <= 1e-9
+                and np.abs(rot.T @ rot - np.eye(3)).max() <= 1e-6 and np.linalg.det(rot) > 0)
+
+
 def _three(value, name):
     """Three finite numbers; one number stands for three equal ones."""
     try:

@@ -243,7 +243,7 @@ def test_cadpipe_view_writes_both_previews(tmp_path, pipe, capsys):
 @pytest.mark.parametrize("args, message", [
     (["missing.stl"], "no such file"),
     (["pipe.stl", "--highlight", "arm"], "no part named 'arm'"),
-    (["pipe.stl", "-o", "pipe.stl/out"], "cannot create the folder"),
+    (["pipe.stl", "-o", "pipe.stl/out"], "pipe.stl is a file"),
 ])
 def test_cadpipe_view_errors_are_one_line(tmp_path, pipe, capsys, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)

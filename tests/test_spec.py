@@ -5,7 +5,6 @@ import os
 import subprocess
 import sys
 import textwrap
-import tomllib
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -20,15 +19,7 @@ from cadpipe.transform import placement
 EXAMPLES = FilePath(__file__).parent.parent / "assets" / "examples"
 
 
-def is_assembly_spec(file):
-    """Assembly specs have ``parts``; collision cells (``cadpipe collide``) live here too."""
-    data = tomllib.loads(file.read_text()) if file.suffix == ".toml" else json.loads(
-        file.read_text())
-    return "parts" in data
-
-
-SPECS = [f for f in sorted(EXAMPLES.glob("*.toml")) + sorted(EXAMPLES.glob("*.json"))
-         if is_assembly_spec(f)]
+SPECS = sorted(EXAMPLES.glob("*.toml")) + sorted(EXAMPLES.glob("*.json"))
 
 
 def write(folder, text, name="cell.toml"):
@@ -43,14 +34,35 @@ def test_there_are_several_examples():
 
 @pytest.mark.parametrize("spec", SPECS, ids=lambda p: p.name)
 def test_every_example_spec_builds_one_watertight_solid(spec, tmp_path):
+    """One solid per example; a robot cell's parts stand apart from each other."""
     read_spec = read(spec)
     solid = read_spec.assembly.union()
-    assert solid.is_watertight and solid.is_outward and solid.n_bodies == 1
+    assert solid.is_watertight and solid.is_outward
+    assert solid.n_bodies == 1 or read_spec.cell.robot is not None
     assert set(solid.part_names) == {p.name for p in read_spec.assembly.parts}
     assert read_spec.outputs, "examples list their outputs"
     out = tmp_path / "example.stl"                        # and from the command line
     assert main(["build", str(spec), "-o", str(out), "--quiet"]) == 0
     assert cadpipe.Mesh.load(out).volume == pytest.approx(solid.volume, rel=1e-6)
+
+
+def test_a_robot_cell_builds_its_parts_and_the_posed_links(tmp_path, capsys):
+    cell = read(EXAMPLES / "robot_cell.toml")
+    robot = cell.cell.robot
+    names = [p.name for p in cell.assembly.parts]
+    assert names[:3] == ["workpiece", "cable_duct", "weld_seam"]
+    assert names[3:] == list(robot.robot.link_meshes)              # then every link, posed
+    for part in cell.assembly.parts[3:]:
+        placed = np.eye(4) if part.transform is None else part.transform   # None: identity
+        np.testing.assert_allclose(placed, robot.link_poses()[part.name])
+        assert part.color == pytest.approx((0x64 / 255, 0x74 / 255, 0x8b / 255))
+    out = tmp_path / "cell.usda"
+    assert main(["build", str(EXAMPLES / "robot_cell.toml"), "-o", str(out), "--quiet"]) == 0
+    from pxr import Usd
+
+    stage = Usd.Stage.Open(str(out))
+    prims = {p.GetParent().GetName() for p in stage.Traverse() if p.GetTypeName() == "Mesh"}
+    assert {"workpiece", "panda_hand", "panda_leftfinger"} <= prims
 
 
 def test_spec_builds_the_same_assembly_as_the_python_api(tmp_path):

@@ -6,6 +6,7 @@ checked analytically as chains of round cones; robots come from URDF.
 """
 
 from .bodies import Box, Capsule, Sphere
+from .cell import world_from_spec
 from .certificate import Certificate
 from .fixture import PipeContainment
 from .robot import Joint, Robot, srdf_disabled_pairs
@@ -13,4 +14,4 @@ from .world import STAGES, Clearance, CollisionReport, CollisionWorld, PairResul
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
            "CollisionWorld", "Joint", "PairResult", "PipeContainment", "Robot", "Sphere",
-           "srdf_disabled_pairs"]
+           "srdf_disabled_pairs", "world_from_spec"]

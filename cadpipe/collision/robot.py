@@ -111,13 +111,16 @@ class Robot:
             if unknown:
                 raise InputError(f"joints: unknown joint {sorted(unknown)[0]!r}; robot "
                                  f"{self.name} has {', '.join(self.actuated)}")
-            values.update({k: float(v) for k, v in joints.items()})
+            given = _numbers(list(joints.values()))
+            if len(given) != len(joints):
+                raise InputError(f"joints: expected one number per joint, got {joints!r}")
+            values.update(zip(joints, given))
         else:
-            seq = np.asarray(joints, dtype=np.float64).ravel()
+            seq = _numbers(joints)
             if len(seq) != len(self.actuated):
                 raise InputError(f"joints: robot {self.name} has {len(self.actuated)} joints "
                                  f"({', '.join(self.actuated)}), got {len(seq)} values")
-            values.update(zip(self.actuated, seq.tolist()))
+            values.update(zip(self.actuated, seq))
         by_name = {j.name: j for j in self.joints}
         for name, value in values.items():
             j = by_name[name]
@@ -159,8 +162,7 @@ class Robot:
         import yourdfpy
 
         path = FilePath(path)
-        if not path.is_file():
-            raise SpecError(f"{path}: no such URDF file")
+        _xml_root(path, "URDF")       # a clear error for bad XML (yourdfpy would log it)
         try:
             urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
                                       build_collision_scene_graph=False)
@@ -177,6 +179,15 @@ class Robot:
             raise SpecError(f"{path}: no link has collision geometry; nothing to check")
         allowed = srdf_disabled_pairs(srdf) if srdf is not None else ()
         return cls(urdf.robot.name, joints, meshes, allowed)
+
+
+def _numbers(values):
+    """Joint values as a flat list of floats, or :class:`InputError` saying what came."""
+    try:
+        return np.asarray(values, dtype=np.float64).ravel().tolist()
+    except (TypeError, ValueError):
+        raise InputError(f"joints: expected numbers (radians or metres), got {values!r}") \
+            from None
 
 
 def _kinematics(joints, base):
@@ -254,19 +265,23 @@ def _union(parts, link):
     return Mesh.from_manifold(manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add))
 
 
-def srdf_disabled_pairs(path):
-    """``(link, link, reason)`` from an SRDF's ``disable_collisions`` entries."""
+def _xml_root(path, what):
+    """The root element of an XML file, or :class:`SpecError` saying why there is none."""
     from xml.etree import ElementTree
 
-    path = FilePath(path)
     if not path.is_file():
-        raise SpecError(f"{path}: no such SRDF file")
+        raise SpecError(f"{path}: no such {what} file")
     try:
-        root = ElementTree.parse(path).getroot()
+        return ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
         raise SpecError(f"{path}: not readable XML ({exc})") from None
+
+
+def srdf_disabled_pairs(path):
+    """``(link, link, reason)`` from an SRDF's ``disable_collisions`` entries."""
+    path = FilePath(path)
     pairs = []
-    for entry in root.iter("disable_collisions"):
+    for entry in _xml_root(path, "SRDF").iter("disable_collisions"):
         a, b = entry.get("link1"), entry.get("link2")
         if not a or not b:
             raise SpecError(f"{path}: disable_collisions needs link1 and link2")

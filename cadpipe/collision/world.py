@@ -15,6 +15,7 @@ from functools import cached_property
 import numpy as np
 
 from ..errors import InputError
+from ..transform import is_rigid
 from . import bounds, narrow
 from .bodies import as_body
 
@@ -37,9 +38,7 @@ def as_pose(transform, name):
         raise InputError(f"{name}: transform must be a 4x4 matrix, got shape {m.shape}")
     if not np.isfinite(m).all():
         raise InputError(f"{name}: transform has NaN or infinite entries; pass a finite matrix")
-    rot = m[:3, :3]
-    if (np.abs(m[3] - (0.0, 0.0, 0.0, 1.0)).max() > 1e-9
-            or np.abs(rot.T @ rot - np.eye(3)).max() > 1e-6 or np.linalg.det(rot) <= 0):
+    if not is_rigid(m):
         raise InputError(f"{name}: transform must be rigid (a rotation and a translation); "
                          "scale or mirror the mesh itself instead")
     return m

@@ -7,7 +7,7 @@ boolean, every output's format. Only then are files written, each atomically.
 from pathlib import Path as FilePath
 
 from ..cli import command
-from ..errors import InputError
+from ..errors import CadpipeError, InputError
 
 
 def _arguments(parser):
@@ -27,7 +27,7 @@ def build(args):
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from ..exporters import ensure_folder, exporters, suffix_of
+    from ..exporters import check_target, ensure_folder, exporters, suffix_of
     from ..spec import read
 
     spec = read(args.spec)
@@ -40,6 +40,7 @@ def build(args):
         if suffix_of(path) not in exporters:
             raise InputError(f"{path}: unknown output format; supported: "
                              f"{', '.join('.' + n for n in exporters.names())}")
+        check_target(path)
 
     assembly = spec.assembly
     report = Console(quiet=args.quiet, soft_wrap=True, highlight=False, markup=False)
@@ -50,7 +51,10 @@ def build(args):
                   disable=args.quiet or not bar.is_terminal) as progress:
         task = progress.add_task("parts", total=len(assembly.parts) + 1 + len(outputs))
         step = lambda label: progress.update(task, advance=1, description=label)  # noqa: E731
-        solid = assembly.union(progress=step)
+        try:
+            solid = assembly.union(progress=step)
+        except CadpipeError as exc:           # name the spec, as its reading errors do
+            raise type(exc)(f"{spec.file}: {exc}") from None
         for path, mode in outputs:
             progress.update(task, description=f"writing {path.name}")
             ensure_folder(path.parent)

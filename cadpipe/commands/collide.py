@@ -1,14 +1,13 @@
-"""``cadpipe collide``: check a robot cell file for collisions."""
+"""``cadpipe collide``: check the robot cell a spec file describes for collisions."""
 
 import json
 import re
-from pathlib import Path as FilePath
 
 from ..cli import command
 
 
 def _arguments(parser):
-    parser.add_argument("spec", metavar="SPEC", help="robot cell file (.toml or .json)")
+    parser.add_argument("spec", metavar="SPEC", help="spec file of the cell (.toml or .json)")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--svg", metavar="DIR",
                         help="write a separation certificate (SVG) for every pair whose boxes "
@@ -19,18 +18,20 @@ def _safe(name):
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
 
 
-@command("collide", "Check a robot cell (TOML/JSON) for collisions.", _arguments)
+@command("collide", "Check the parts and robot of a spec file (TOML/JSON) for collisions.", _arguments)
 def collide(args):
-    from ..collision.cell import load_cell
+    from ..collision import world_from_spec
+    from ..exporters import ensure_folder
+    from ..spec import read
 
-    world, options = load_cell(args.spec)
+    spec = read(args.spec)
+    world, options = world_from_spec(spec), dict(spec.cell.check)
     if args.svg:
         options["certify"] = True
     report = world.check(**options)
     written = []
     if args.svg:
-        folder = FilePath(args.svg)
-        folder.mkdir(parents=True, exist_ok=True)
+        folder = ensure_folder(args.svg)
         for pair in report.pairs:
             if pair.certificate is not None:
                 target = folder / f"{_safe(pair.a)}__{_safe(pair.b)}.svg"

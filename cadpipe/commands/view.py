@@ -3,7 +3,7 @@
 from pathlib import Path as FilePath
 
 from ..cli import command
-from ..errors import ExportError
+from ..exporters import ensure_folder
 from ..mesh import Mesh
 from ..preview import VIEWS, render_png, write_html
 from ..scene import as_scene
@@ -23,12 +23,7 @@ def _arguments(parser):
 @command("view", "Write preview.png and preview.html for a mesh file.", _arguments)
 def view(args):
     scene = as_scene(Mesh.load(args.file), name=FilePath(args.file).name)
-    folder = FilePath(args.output)
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ExportError(f"{folder}: cannot create the folder ({exc.strerror}); "
-                          "choose a writable folder") from None
+    folder = ensure_folder(args.output)
     for written in (render_png(scene, folder / "preview.png", highlight=args.highlight,
                                view=args.view),
                     write_html(scene, folder / "preview.html", highlight=args.highlight,

@@ -11,6 +11,8 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path as FilePath
 
+import numpy as np
+
 from ..errors import ExportError, InputError, MeshError
 from ..registry import exporters
 
@@ -52,9 +54,29 @@ def _umask():
     return mask
 
 
+def _file_in_the_way(folder):
+    """The file that stands where ``folder`` or one of its parents should be, if any."""
+    return next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), None)
+
+
+def check_target(path):
+    """Raise :class:`ExportError` if ``path`` can never be written as a file: it is a
+    folder, or a file stands where one of its folders should be."""
+    path = FilePath(path)
+    if path.is_dir():
+        raise ExportError(f"{path}: is a folder; give the name of a file to write")
+    blocker = _file_in_the_way(path.parent)
+    if blocker is not None:
+        raise ExportError(f"{path}: {blocker} is a file, not a folder; choose another path")
+
+
 def ensure_folder(folder):
     """Create ``folder`` (and parents) or raise :class:`ExportError` saying why not."""
     folder = FilePath(folder)
+    blocker = _file_in_the_way(folder)
+    if blocker is not None:
+        raise ExportError(f"{folder}: cannot create the output folder: {blocker} is a file; "
+                          "choose another folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -67,6 +89,7 @@ def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
     path = FilePath(path)
     directory = path.parent if str(path.parent) else FilePath(".")
+    check_target(path)
     if not directory.is_dir():
         raise ExportError(f"{path}: folder {directory} does not exist; create it first")
     try:
@@ -93,20 +116,25 @@ def load_mesh(path):
     Scenes are flattened into one mesh. Raises :class:`ExportError` for a missing or
     unreadable file and :class:`MeshError` for one holding no triangles.
     """
-    import trimesh
+    path = FilePath(path)
+    if not path.is_file():
+        raise ExportError(f"{path}: is a folder, not a mesh file" if path.is_dir() else
+                          f"{path}: no such file")
+    import trimesh                    # after the check: a wrong name is reported at once
 
     from ..mesh import Mesh
 
-    path = FilePath(path)
-    if not path.is_file():
-        raise ExportError(f"{path}: no such file")
     try:
         loaded = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # trimesh raises many types for corrupt input
         raise MeshError(f"{path}: cannot read it as a mesh ({type(exc).__name__}: {exc})") \
             from None
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(f"{path}: the file holds no triangles")
+        raise MeshError(f"{path}: the file holds no triangles (empty, truncated or not a "
+                        "mesh file)")
+    if not np.isfinite(loaded.vertices).all():
+        raise MeshError(f"{path}: some vertex coordinates are NaN or infinite; the file is "
+                        "corrupt")
     # files store each triangle's corners separately (STL): weld exact duplicates
     loaded.merge_vertices(merge_tex=True, merge_norm=True)
     return Mesh(loaded.vertices, loaded.faces, attributes={"source": str(path)})
