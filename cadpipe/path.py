@@ -271,6 +271,11 @@ def polylines(paths):
                      Groups([len(p) for p in paths], [p.closed for p in paths]))
 
 
+def _rows(table, rows, doc):
+    """A property: some rows of one of :class:`Polylines`' per-point tables."""
+    return property(lambda self: getattr(self, table)[rows], doc=doc)
+
+
 class Polylines:
     """Segment, corner and tangent geometry of many polylines in one set of arrays.
 
@@ -296,8 +301,7 @@ class Polylines:
     @cached_property
     def _segments(self):
         """(8, N): segment (rows 0-2), unit direction (3-5), length (6) and arc length
-        from the polyline's start (7) at every point, in one allocation (large enough
-        for the kernel's huge pages: a few page faults instead of thousands)."""
+        from the polyline's start (7) at every point, in one allocation."""
         p, g = self.xyz, self.groups
         out = np.empty((8, g.size))
         segments = out[0:3]
@@ -310,29 +314,17 @@ class Polylines:
         g.exclusive_cumsum(out[6], out=out[7])
         return out
 
-    @property
-    def segments(self):
-        return self._segments[0:3]
-
-    @property
-    def segment_lengths(self):
-        return self._segments[6]
-
-    @property
-    def directions(self):
-        """(3, N) unit direction of each segment: the outgoing direction at each point."""
-        return self._segments[3:6]
+    segments = _rows("_segments", slice(0, 3), "(3, N) vector from each point to the next.")
+    directions = _rows("_segments", slice(3, 6), "(3, N) unit direction of each segment: the "
+                       "outgoing direction at each point.")
+    segment_lengths = _rows("_segments", 6, "(N,) length of each segment.")
+    arc_length = _rows("_segments", 7, "(N,) distance along each polyline from its first point.")
 
     @property
     def incoming(self):
         """(3, N) unit direction of the segment arriving at each point (an open
         polyline's first point takes its outgoing direction)."""
         return self.groups.preceding(self.directions)
-
-    @property
-    def arc_length(self):
-        """(N,) distance along each polyline from its first point."""
-        return self._segments[7]
 
     @cached_property
     def lengths(self):
@@ -359,27 +351,15 @@ class Polylines:
                 np.divide(2.0, size, out=out[7, rows])            # |d_in + d_out| = 2 cos(turn/2)
         return out
 
-    @property
-    def tangents(self):
-        """(3, N) unit bisectors of the adjacent segments (see :meth:`require_no_folds`)."""
-        return self._corners[0:3]
-
-    @property
-    def bend_directions(self):
-        """(3, N) unit vector in each corner's plane, across the tangent (zero where
-        the polyline is straight)."""
-        return self._corners[3:6]
-
-    @property
-    def turning_angles(self):
-        """(N,) angle between the incoming and outgoing segment at each point."""
-        return self._corners[6]
-
-    @property
-    def miter_stretch(self):
-        """(N,) ``1 / cos(turn / 2)``: how far a ring in the bisector plane reaches
-        along the bend to stay on both segments' cylinders (infinite at a fold)."""
-        return self._corners[7]
+    tangents = _rows("_corners", slice(0, 3), "(3, N) unit bisectors of the adjacent "
+                     "segments (see :meth:`require_no_folds`).")
+    bend_directions = _rows("_corners", slice(3, 6), "(3, N) unit vector in each corner's plane, "
+                            "across the tangent (zero where the polyline is straight).")
+    turning_angles = _rows("_corners", 6, "(N,) angle between the incoming and outgoing "
+                           "segment at each point.")
+    miter_stretch = _rows("_corners", 7, "(N,) ``1 / cos(turn / 2)``: how far a ring in the "
+                          "bisector plane reaches along the bend to stay on both segments' "
+                          "cylinders (infinite at a fold).")
 
     def require_no_folds(self):
         """Raise :class:`GeometryError` where a polyline reverses (no tangent exists)."""
