@@ -4,8 +4,8 @@ Three ways a swept tube folds: a corner sharper than the miter limit, rings that
 overlap within one segment (the radius exceeds the local bend radius), and two
 parts of the tube that are far apart along the path but closer in space than the
 sum of their radii. All three run over a whole batch of tubes at once
-(:class:`~cadpipe.tubes.Tubes`): one pass over all points, one KD-tree over all
-tubes' samples.
+(:class:`~cadpipe.tubes.Tubes`): one pass over all points, one KD-tree over
+chunks of all tubes' samples.
 """
 
 import numpy as np
