@@ -15,8 +15,8 @@ def as_points(value, name, *, dim=3, min_count=1):
         raise InputError(f"{name}: expected shape (N, {dim}), got {arr.shape}")
     if len(arr) < min_count:
         raise InputError(f"{name}: expected at least {min_count} points, got {len(arr)}")
-    bad = ~np.isfinite(arr).all(axis=1)
-    if bad.any():
+    if not np.isfinite(arr).all():
+        bad = ~np.isfinite(arr).all(axis=1)
         raise InputError(f"{name}: point {int(np.argmax(bad))} is not finite (NaN or inf); "
                          "remove or fix it")
     return arr
