@@ -173,9 +173,9 @@ class HollowChain(Hollow):
 
     def solids(self):
         """``([spliced outer pipes], [spliced bores])``."""
-        from .splice import _make_room, splice
+        from .splice import make_room, splice
 
-        outers = _make_room(list(self.pipes), self.closed)
+        outers = make_room(list(self.pipes), self.closed)
         last = len(outers) - 1
         open_ends = not self.closed
         bores = [bore(p, self.wall, self.ends[0] if i == 0 and open_ends else "flush",

@@ -94,7 +94,7 @@ def _junctions(count, closed):
     return before, (before + 1) % count
 
 
-def _make_room(pipes, closed):
+def make_room(pipes, closed=False):
     """The pipes, those whose ends touch trimmed to leave room for a transition (as
     :func:`splice` does, so other chains can follow the same ends)."""
     return _room_for_transitions(pipes, tubes_of(pipes), *_junctions(len(pipes), closed))[0]
