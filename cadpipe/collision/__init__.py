@@ -9,8 +9,9 @@ from .bodies import Box, Capsule, Sphere
 from .certificate import Certificate
 from .fixture import PipeContainment
 from .robot import Joint, Robot, srdf_disabled_pairs
-from .world import STAGES, Clearance, CollisionReport, CollisionWorld, PairResult
+from .world import (STAGES, Clearance, CollisionReport, CollisionReports, CollisionWorld,
+                    PairResult)
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
-           "CollisionWorld", "Joint", "PairResult", "PipeContainment", "Robot", "Sphere",
+           "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment", "Robot", "Sphere",
            "srdf_disabled_pairs"]

@@ -89,6 +89,18 @@ class Body:
         return bounds.fit_obb(*self.hull)
 
     @cached_property
+    def support(self):
+        """Points and padding the world 18-DOP is computed from each pose: a chain's
+        balls (exact); a mesh's hull vertices or, when fewer, the vertices of
+        :func:`~cadpipe.collision.bounds.kdop_polytope` around them."""
+        points, pad = self.hull
+        if self.kind == "chain":
+            return points, pad
+        polytope = bounds.kdop_polytope(points, self.obb)
+        return (polytope, np.zeros(len(polytope))) if len(polytope) < len(points) \
+            else (points, pad)
+
+    @cached_property
     def probes(self):
         """One point of each connected piece: if no boundaries touch, a piece is
         inside another solid exactly when its probe is."""
