@@ -104,14 +104,14 @@ class Supports:
     """Every object's support points (whose padded hull contains it) and local OBB,
     packed so the bounds of many placed objects come out of a few batched products.
 
-    Points are grouped by count (powers of two from 8, padded by repeating a
+    Points are grouped by count (multiples of 8, padded by repeating a
     point), one array per group laid out as coordinates then points, so the
     reductions run along contiguous rows.
     """
 
     def __init__(self, supports, obbs):
         counts = [len(p) for p, _ in supports]
-        sizes = [1 << max(3, int(np.ceil(np.log2(c)))) for c in counts]
+        sizes = [8 * -(-c // 8) for c in counts]
         self.groups = sorted(set(sizes))
         self.group = np.array([self.groups.index(size) for size in sizes], np.int64)
         self.row = np.zeros(len(supports), np.int64)

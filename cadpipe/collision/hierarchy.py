@@ -35,6 +35,8 @@ from .capsules import inverse, segment_params, unit_pair_gap
 
 #: poses per pass of :func:`chain_gaps`: the frontier's arrays stay in cache
 CHUNK = 1024
+#: node pairs per pose the walk may start with: a small batch starts deeper
+START = 256
 #: the four child pairs of a node pair, as offsets from each side's first child
 SPLIT_A, SPLIT_B = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
 
@@ -96,9 +98,14 @@ class CapsuleTree:
         self.homogeneous = np.vstack([chain.centers.T, np.ones(len(chain.centers))])
 
     @cached_property
-    def columns(self):
-        """``start`` and ``chord`` as six contiguous coordinate arrays."""
-        return tuple(np.ascontiguousarray(c) for c in np.hstack([self.start, self.chord]).T)
+    def start_t(self):
+        """``start`` as (3, N) coordinate rows."""
+        return np.ascontiguousarray(self.start.T)
+
+    @cached_property
+    def chord_t(self):
+        """``chord`` as (3, N) coordinate rows."""
+        return np.ascontiguousarray(self.chord.T)
 
     @cached_property
     def capsule_leaves(self):
@@ -149,25 +156,27 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     # b's centres at every pose in one matrix product: coordinate k of centre c at
     # pose p is moved[(3 p + k) n_b + c]
     moved = (poses[:, :3].reshape(-1, 4) @ tb.homogeneous).ravel()
+    xyz = (np.arange(3) * n_b)[:, None]
     cap = np.inf if stop_below is None else float(stop_below)
     exact = stop_below is None or not (ta.capsule_leaves and tb.capsule_leaves)
     bound = np.full(count, np.inf)                 # a proven upper bound of each gap
-    pose = np.arange(count)
-    na, nb = np.zeros(count, np.int64), np.zeros(count, np.int64)
+    # few poses start deeper: fewer passes, each over more node pairs
     bottom = max(ta.depth, tb.depth)
-    for depth in range(bottom + 1):
-        i0 = tb.v0[nb] + pose * (3 * n_b)
-        i1 = tb.v1[nb] - tb.v0[nb] + i0
-        q0 = [moved[i0], moved[i0 + n_b], moved[i0 + 2 * n_b]]
-        v = [moved[i1] - q0[0], moved[i1 + n_b] - q0[1], moved[i1 + 2 * n_b] - q0[2]]
-        a0, u = [c[na] for c in ta.columns[:3]], [c[na] for c in ta.columns[3:]]
-        r = [a - q for a, q in zip(a0, q0)]
-        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb],
-                              u[0] * v[0] + u[1] * v[1] + u[2] * v[2],
-                              u[0] * r[0] + u[1] * r[1] + u[2] * r[2],
-                              v[0] * r[0] + v[1] * r[1] + v[2] * r[2],
-                              ta.inv_chord_sq[na], tb.inv_chord_sq[nb])
-        dist = np.sqrt(sum((rk + s * uk - t * vk) ** 2 for rk, uk, vk in zip(r, u, v)))
+    top = min(int(np.log(max(START / count, 1.0)) / np.log(4.0)), bottom)
+    na, nb = _level(ta, top), _level(tb, top)
+    pose = np.repeat(np.arange(count), len(na) * len(nb))
+    na, nb = np.tile(np.repeat(na, len(nb)), count), np.tile(nb, count * len(na))
+    for depth in range(top, bottom + 1):
+        i0 = tb.v0[nb] + pose * (3 * n_b) + xyz                     # (3, E) coordinates
+        q0 = moved[i0]
+        v = moved[i0 + (tb.v1[nb] - tb.v0[nb])] - q0
+        u = ta.chord_t[:, na]
+        r = ta.start_t[:, na] - q0
+        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], (u * v).sum(axis=0),
+                              (u * r).sum(axis=0), (v * r).sum(axis=0), ta.inv_chord_sq[na],
+                              tb.inv_chord_sq[nb])
+        r += s * u - t * v
+        dist = np.sqrt((r * r).sum(axis=0))
         upper = np.maximum(dist - ta.inner[na] - tb.inner[nb], 0.0)
         lower = dist - ta.outer[na] - tb.outer[nb]
         if stop_below is None:
@@ -188,6 +197,12 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     if exact and pose.size:
         ua, ub = ta.unit[na - 2 ** ta.depth + 1], tb.unit[nb - 2 ** tb.depth + 1]
         _exact(chain_a, chain_b, moved, n_b, pose, ua, ub, gap, units, params)
+
+
+def _level(tree, depth):
+    """The nodes of ``tree`` at ``depth`` (its leaves if it is shallower)."""
+    depth = min(depth, tree.depth)
+    return np.arange(2 ** depth - 1, 2 ** (depth + 1) - 1)
 
 
 def _exact(chain_a, chain_b, moved, n_b, pose, ua, ub, gap, units, params):

@@ -16,6 +16,7 @@ body and never refitted. Touching counts as contact.
 import numpy as np
 
 from .capsules import BATCH
+from .hierarchy import chain_gaps
 
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
 INSIDE = 0.5
@@ -171,7 +172,7 @@ def collide(body_a, poses_a, body_b, poses_b):
     calls batched.
     """
     if body_a.kind == "chain" and body_b.kind == "chain":
-        gap = body_a.chain.gaps(body_b.chain, relative(poses_a, poses_b), stop_below=0.0)[0]
+        gap = chain_gaps(body_a.chain, body_b.chain, relative(poses_a, poses_b), 0.0)[0]
         return gap <= 0.0, np.zeros(len(gap), bool)
     if body_a.kind == "chain":
         body_a, poses_a, body_b, poses_b = body_b, poses_b, body_a, poses_a
