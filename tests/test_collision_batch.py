@@ -18,15 +18,12 @@ def arm():
     """Four capsule-like links: a turning base, then three folding joints."""
     link = Mesh.from_trimesh(trimesh.creation.capsule(height=0.5, radius=0.07, count=[8, 8]))
     link = link.transformed(trimesh.transformations.translation_matrix([0, 0, 0.25]))
-    up = np.eye(4)
-    up[2, 3] = 0.5
-    joints, parent = [], "base"
-    for k in range(4):
-        axis = [0.0, 0.0, 1.0] if k == 0 else [0.0, 1.0, 0.0]
-        joints.append(Joint(f"j{k}", "revolute", parent, f"l{k}", up if k else np.eye(4),
-                            np.array(axis), -2.8, 2.8))
-        parent = f"l{k}"
-    return Robot("arm", joints, {f"l{k}": link for k in range(4)})
+    up = shift(0, 0, 0.5)
+    names = ["base", "l0", "l1", "l2", "l3"]
+    joints = [Joint(f"j{k}", "revolute", names[k], names[k + 1], up if k else np.eye(4),
+                    np.array([0.0, 0.0, 1.0] if k == 0 else [0.0, 1.0, 0.0]), -2.8, 2.8)
+              for k in range(4)]
+    return Robot("arm", joints, dict.fromkeys(names[1:], link))
 
 
 def shift(x, y, z):

@@ -87,6 +87,10 @@ class CapsuleTree:
         self.inner[full] = np.where(joined, np.minimum.reduceat(r_min, offsets)
                                     - np.maximum.reduceat(np.maximum(*dev), offsets), -np.inf)
         self.outer[full] = np.maximum.reduceat(np.maximum(*outer), offsets)
+        # a single unit's chord is its own axis: the radii are exact, free of rounding
+        one = full[runs == 1]
+        self.inner[one] = np.minimum(chain.start_radii, chain.end_radii)[first[one]]
+        self.outer[one] = np.maximum(chain.start_radii, chain.end_radii)[first[one]]
         self.v0, self.v1 = np.zeros(size, np.int64), np.zeros(size, np.int64)
         self.v0[full], self.v1[full] = v0, v1
         leaves = np.arange(2 ** self.depth - 1, size)
