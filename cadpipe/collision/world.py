@@ -174,7 +174,8 @@ class CollisionReports(Sequence):
     ``colliding[c]`` says whether configuration ``c`` has any collision;
     ``pair_colliding`` and ``decided_by`` hold every pair's answer and stage
     code (an index into :data:`STAGES`) per configuration, pairs in
-    ``np.triu_indices`` order of the objects.
+    ``np.triu_indices`` order of the objects; ``stopped_after_self[c]`` is
+    :attr:`CollisionReport.stopped_after_self` of configuration ``c``.
     """
 
     def __init__(self, names, first, second, same, codes, colliding, allowed_reasons,
@@ -401,7 +402,7 @@ class CollisionWorld:
         stays where :meth:`set_joints` last put it.
         """
         robot, base, ids = self._robot(group)
-        poses = robot.link_pose_array(np.asarray(configurations, np.float64), base)
+        poses = robot.link_pose_array(configurations, base)
         return self._evaluate(ids, poses, stop_after_self, certify)
 
     def check_many(self, poses, stop_after_self=False, certify=False):
