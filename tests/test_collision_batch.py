@@ -239,7 +239,7 @@ def test_tree_radii_bound_every_node(points, radii, seed):
     chain = Chain.along(np.array(points), np.array(radii[:len(points)]))
     tree = chain.tree
     rng = np.random.default_rng(seed)
-    for node in range(len(tree.v0)):
+    for node in range(len(tree.p0)):
         if not np.isfinite(tree.outer[node]):
             continue
         depth = int(np.log2(node + 1))

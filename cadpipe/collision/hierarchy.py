@@ -1,23 +1,25 @@
 """A bounding-capsule hierarchy over a chain's units, traversed for many poses at once.
 
-Each node of the binary tree covers a run of consecutive units and carries the
-capsule around its chord (the segment from the run's first ball centre to its
-last) with two radii:
+Each node of the binary tree covers a run of consecutive units and carries a
+capsule: a segment, its chord, with two radii. A unit's chord is its own axis;
+a longer run's is the segment between its first and last ball centres, moved
+across its direction to the middle of the run's bulge (on a bend that halves
+how far the run strays from it). The radii:
 
 * ``outer``: the capsule contains every unit of the run (each end ball lies in
   it: distance to the chord plus radius);
 * ``inner``: within ``inner`` of the chord lies a point of the run (a point
-  inside it when ``inner >= 0``). The run's axis is a connected polyline from
-  one chord end to the other, so it passes over every chord point within
-  ``dev``, its largest distance from the chord's line, and the ball there has
-  radius at least ``r_min``: ``inner = r_min - dev``. Runs whose units do not
-  join up get ``-inf``.
+  inside it when ``inner >= 0``). The run's axis is a connected polyline whose
+  ends project onto the chord's ends, so it passes over every chord point
+  within ``dev``, its largest distance from the chord's line, and the ball
+  there has radius at least ``r_min``: ``inner = r_min - dev``. Runs whose
+  units do not join up get ``-inf``.
 
 So two nodes hold no touching units when their chords are farther apart than
 the outer radii, and they touch when the chords are closer than the inner
 radii. A pipe's units are short beside its radius, the two radii are close,
 and most node pairs are decided high in the tree: two pipes settle a yes/no
-query in about a dozen capsule tests.
+query in about eight capsule tests.
 
 The tree is perfect (every leaf at the same depth, some empty) in heap order,
 so :func:`chain_gaps` walks both trees in lockstep without looking children
@@ -34,7 +36,7 @@ import numpy as np
 from .capsules import inverse, segment_params, unit_pair_gap
 
 #: poses per pass of :func:`chain_gaps`: the frontier's arrays stay in cache
-CHUNK = 1024
+CHUNK = 4096
 #: node pairs per pose the walk may start with: a small batch starts deeper
 START = 256
 #: the four child pairs of a node pair, as offsets from each side's first child
@@ -46,9 +48,10 @@ class CapsuleTree:
 
     Node ``k`` has children ``2k + 1`` and ``2k + 2``; the leaves, at depth
     ``depth``, hold one unit each (``unit``) or none (``unit == -1``, radii
-    ``-inf``: never near anything). Per node: ``start`` and ``chord`` (the
-    chord's first end and its vector), ``chord_sq`` and its :func:`inverse`,
-    ``inner`` and ``outer``.
+    ``-inf``: never near anything). Per node: ``p0``, ``p1`` index the chord's
+    ends in ``points`` (the ball centres, then the longer runs' chord ends),
+    ``start`` and ``chord`` are the first end and the vector, ``chord_sq`` and
+    its :func:`inverse`, ``inner`` and ``outer`` the radii.
     """
 
     def __init__(self, chain):
@@ -63,23 +66,33 @@ class CapsuleTree:
             last[2 ** d - 1 + j] = (j + 1) * count // 2 ** d
         full = np.flatnonzero(last > first)
         lo, hi = first[full], last[full]
-        v0, v1 = edges[lo, 0], edges[hi - 1, 1]
-        # every unit of every node, node after node, for per-node maxima by reduceat
+        # every unit of every node, node after node, for per-node extremes by reduceat
         runs = hi - lo
         offsets = np.r_[0, np.cumsum(runs)[:-1]]
         units = np.repeat(lo - offsets, runs) + np.arange(runs.sum())
         owner = np.repeat(np.arange(len(full)), runs)
-        a = chain.centers[v0][owner]
-        d = chain.centers[v1][owner] - a
-        dd = np.einsum("ij,ij->i", d, d)
+        start = chain.centers[edges[lo, 0]]
+        d = chain.centers[edges[hi - 1, 1]] - start
+        inv = inverse(np.einsum("ij,ij->i", d, d))
+        ends = ((chain.starts[units], chain.start_radii[units]),
+                (chain.ends[units], chain.end_radii[units]))
+        # a longer run's chord moves across its direction to the middle of the bulge
+        across = [p - start[owner] for p, _ in ends]
+        across = [w - (np.einsum("ij,ij->i", w, d[owner]) * inv[owner])[:, None] * d[owner]
+                  for w in across]
+        middle = 0.5 * (np.minimum.reduceat(np.minimum(*across), offsets)
+                        + np.maximum.reduceat(np.maximum(*across), offsets))
+        middle -= (np.einsum("ij,ij->i", middle, d) * inv)[:, None] * d
+        middle[runs == 1] = 0.0
+        start = start + middle
         outer, dev = [], []
-        for p, r in ((chain.starts, chain.start_radii), (chain.ends, chain.end_radii)):
-            rel = p[units] - a
-            along = np.einsum("ij,ij->i", rel, d) * inverse(dd)
-            outer.append(np.linalg.norm(rel - np.clip(along, 0.0, 1.0)[:, None] * d, axis=1)
-                         + r[units])
-            dev.append(np.linalg.norm(rel - along[:, None] * d, axis=1))
-        r_min = np.minimum(chain.start_radii, chain.end_radii)[units]
+        for p, r in ends:
+            rel = p - start[owner]
+            along = np.einsum("ij,ij->i", rel, d[owner]) * inv[owner]
+            outer.append(np.linalg.norm(rel - np.clip(along, 0.0, 1.0)[:, None] * d[owner],
+                                        axis=1) + r)
+            dev.append(np.linalg.norm(rel - along[:, None] * d[owner], axis=1))
+        r_min = np.minimum(*(r for _, r in ends))
         # a unit joins the next when its end is the next one's start
         breaks = np.r_[0, np.cumsum(edges[:-1, 1] != edges[1:, 0])]
         joined = breaks[lo] == breaks[hi - 1]
@@ -91,15 +104,21 @@ class CapsuleTree:
         one = full[runs == 1]
         self.inner[one] = np.minimum(chain.start_radii, chain.end_radii)[first[one]]
         self.outer[one] = np.maximum(chain.start_radii, chain.end_radii)[first[one]]
-        self.v0, self.v1 = np.zeros(size, np.int64), np.zeros(size, np.int64)
-        self.v0[full], self.v1[full] = v0, v1
+        # chord ends as points: a unit's are its ball centres, a longer run's its own
+        longer = np.flatnonzero(runs > 1)
+        n = len(chain.centers)
+        self.points = np.concatenate([chain.centers, start[longer], start[longer] + d[longer]])
+        self.p0, self.p1 = np.zeros(size, np.int64), np.zeros(size, np.int64)
+        self.p0[full], self.p1[full] = edges[lo, 0], edges[hi - 1, 1]
+        self.p0[full[longer]] = n + np.arange(len(longer))
+        self.p1[full[longer]] = n + len(longer) + np.arange(len(longer))
         leaves = np.arange(2 ** self.depth - 1, size)
         self.unit = np.where(last[leaves] > first[leaves], first[leaves], -1)
-        self.start = chain.centers[self.v0]
-        self.chord = chain.centers[self.v1] - self.start
+        self.start = self.points[self.p0]
+        self.chord = self.points[self.p1] - self.start
         self.chord_sq = np.einsum("ij,ij->i", self.chord, self.chord)
         self.inv_chord_sq = inverse(self.chord_sq)
-        self.homogeneous = np.vstack([chain.centers.T, np.ones(len(chain.centers))])
+        self.homogeneous = np.vstack([self.points.T, np.ones(len(self.points))])
 
     @cached_property
     def start_t(self):
@@ -156,24 +175,25 @@ def chain_gaps(chain_a, chain_b, poses, stop_below=None):
 def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     """:func:`chain_gaps` for one chunk of poses, into its output slices."""
     ta, tb = chain_a.tree, chain_b.tree
-    count, n_b = len(poses), len(chain_b.centers)
-    # b's centres at every pose in one matrix product: coordinate k of centre c at
-    # pose p is moved[(3 p + k) n_b + c]
+    count, n_b = len(poses), len(tb.points)
+    # b's chord ends at every pose in one matrix product: coordinate k of point c at
+    # pose p is moved[(3 p + k) n_b + c] (the ball centres come first)
     moved = (poses[:, :3].reshape(-1, 4) @ tb.homogeneous).ravel()
     xyz = (np.arange(3) * n_b)[:, None]
     cap = np.inf if stop_below is None else float(stop_below)
     exact = stop_below is None or not (ta.capsule_leaves and tb.capsule_leaves)
     bound = np.full(count, np.inf)                 # a proven upper bound of each gap
-    # few poses start deeper: fewer passes, each over more node pairs
+    # the roots' test is left out (the broad phase has compared the whole chains), and
+    # few poses start deeper still: fewer passes, each over more node pairs
     bottom = max(ta.depth, tb.depth)
-    top = min(int(np.log(max(START / count, 1.0)) / np.log(4.0)), bottom)
+    top = min(max(int(np.log(max(START / count, 1.0)) / np.log(4.0)), 1), bottom)
     na, nb = _level(ta, top), _level(tb, top)
     pose = np.repeat(np.arange(count), len(na) * len(nb))
     na, nb = np.tile(np.repeat(na, len(nb)), count), np.tile(nb, count * len(na))
     for depth in range(top, bottom + 1):
-        i0 = tb.v0[nb] + pose * (3 * n_b) + xyz                     # (3, E) coordinates
+        i0 = tb.p0[nb] + pose * (3 * n_b) + xyz                     # (3, E) coordinates
         q0 = moved[i0]
-        v = moved[i0 + (tb.v1[nb] - tb.v0[nb])] - q0
+        v = moved[i0 + (tb.p1[nb] - tb.p0[nb])] - q0
         u = ta.chord_t[:, na]
         r = ta.start_t[:, na] - q0
         s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], (u * v).sum(axis=0),
