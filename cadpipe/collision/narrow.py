@@ -15,6 +15,7 @@ body and never refitted. Touching counts as contact.
 
 import numpy as np
 
+from .bounds import KDOP_DIRECTIONS
 from .capsules import BATCH
 from .hierarchy import chain_gaps
 
@@ -182,21 +183,33 @@ def collide(body_a, poses_a, body_b, poses_b):
     apart = np.flatnonzero(~touching)
     # no boundaries cross: one solid is inside the other exactly when a probe is
     if apart.size:
-        contained[apart] = _probes_inside(body_a, body_b.probes, rel[apart])
+        contained[apart] = _inside(body_a, body_b, rel[apart])
         rest = apart[~contained[apart]]
         if body_b.kind == "mesh" and rest.size:
-            contained[rest] = _probes_inside(body_b, body_a.probes, relative(rel[rest], _EYE))
+            contained[rest] = _inside(body_b, body_a, relative(rel[rest], _EYE))
     return touching | contained, contained
 
 
 _EYE = np.eye(4)
 
 
-def _probes_inside(mesh_body, probes, rel):
-    """Whether any of ``probes`` (K, 3), placed by each of ``rel`` (E, 4, 4) in the
-    mesh's frame, lies inside the mesh."""
-    points = _apply(rel, probes)
-    return mesh_contains(mesh_body, points.reshape(-1, 3)).reshape(points.shape[:2]).any(axis=1)
+def _inside(mesh_body, other, rel):
+    """Whether ``other``, placed by each of ``rel`` (E, 4, 4) in the mesh's frame and
+    touching no triangle, lies inside the mesh.
+
+    Only where its extreme points all fit the mesh's own 18-DOP (a solid inside
+    another lies inside the other's hull) is its probe tested against the mesh.
+    """
+    lo, hi = mesh_body.local_kdop
+    reach = _apply(rel, other.extremes) @ KDOP_DIRECTIONS.T                  # (E, 18, 9)
+    slack = 1e-9 * float(np.max(hi - lo, initial=1.0))
+    fits = np.flatnonzero(np.all((reach >= lo - slack) & (reach <= hi + slack), axis=(1, 2)))
+    inside = np.zeros(len(rel), bool)
+    if fits.size:
+        points = _apply(rel[fits], other.probes)
+        inside[fits] = mesh_contains(mesh_body, points.reshape(-1, 3)).reshape(
+            points.shape[:2]).any(axis=1)
+    return inside
 
 
 def _mesh_mesh(body_a, body_b, rel):
