@@ -502,14 +502,15 @@ class CollisionWorld:
         first, second, same, allowed = self._pairs()
         certificates = {}
         own = same[k]
-        world = ~own
-        if own.any():
-            self._decide(config, k, poses_a, poses_b, own, codes, colliding, certificates,
-                         certify)
-            if stop_after_self:
-                stopped[:] = colliding[:, same].any(axis=1)
-                world &= np.where(config < 0, not stopped.all(), ~stopped[config])
-        self._decide(config, k, poses_a, poses_b, world, codes, colliding, certificates, certify)
+        self._decide(config, k, poses_a, poses_b, np.flatnonzero(own), codes, colliding,
+                     certificates, certify)
+        world = np.flatnonzero(~own)
+        if stop_after_self:
+            stopped[:] = colliding[:, same].any(axis=1)
+            at = config[world]
+            world = world[np.where(at < 0, not stopped.all(), ~stopped[at])]
+        self._decide(config, k, poses_a, poses_b, world, codes, colliding, certificates,
+                     certify)
         if stopped.any():
             rest = ~same & ~allowed
             codes[np.ix_(stopped, rest)] = _CODE["not checked"]
@@ -518,16 +519,17 @@ class CollisionWorld:
 
     def _decide(self, config, k, poses_a, poses_b, chosen, codes, colliding, certificates,
                 certify):
-        """The exact answer for the ``chosen`` entries: a pair of standing objects on
-        its own (its answer kept while neither moves), the others one batch per pair."""
+        """The exact answer for entries ``chosen``: a pair of standing objects on its
+        own (its answer kept while neither moves), the others one batch per pair."""
         first, second, _, _ = self._pairs()
-        for e in np.flatnonzero(chosen & (config < 0)):
+        moving = config[chosen] >= 0
+        for e in chosen[~moving]:
             pair = k[e]
             codes[:, pair], colliding[:, pair], cert = self._standing(
                 first[pair], second[pair], poses_a[e], poses_b[e], certify)
             if cert is not None:
                 certificates[(-1, pair)] = cert
-        batch = np.flatnonzero(chosen & (config >= 0))
+        batch = chosen[moving]
         if not batch.size:
             return
         batch = batch[np.argsort(k[batch], kind="stable")]
@@ -561,9 +563,11 @@ class CollisionWorld:
                                         names=(self._names[i], self._names[j]))
                 if cert is not None:
                     certificates[e] = cert
-        todo = np.ones(len(poses_a), bool)
-        todo[list(certificates)] = False
-        touching, contained = narrow.collide(body_a, poses_a[todo], body_b, poses_b[todo])
+        if certificates:
+            todo = np.ones(len(poses_a), bool)
+            todo[list(certificates)] = False
+            poses_a, poses_b = poses_a[todo], poses_b[todo]
+        touching, contained = narrow.collide(body_a, poses_a, body_b, poses_b)
         exact = _CODE["analytic" if body_a.kind == body_b.kind == "chain" else "fcl"]
         codes = np.where(contained, _CODE["containment"], exact).astype(np.int8)
         if certificates:
