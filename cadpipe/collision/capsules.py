@@ -108,9 +108,10 @@ def segment_params(uu, vv, uv, ur, vr, inv_uu, inv_vv):
     farther apart than his, so it is a closest pair too, and zero-length
     segments (inverse 0) need no branch of their own.
     """
-    den = uu * vv - uv * uv
+    square = uu * vv
+    den = square - uv * uv
     s = np.clip((uv * vr - ur * vv) / np.maximum(den, 1e-300), 0.0, 1.0)
-    s = np.where(den > 1e-14 * uu * vv, s, 0.0)
+    s = np.where(den > 1e-14 * square, s, 0.0)
     t = np.clip((uv * s + vr) * inv_vv, 0.0, 1.0)
     return np.clip((uv * t - ur) * inv_uu, 0.0, 1.0), t
 

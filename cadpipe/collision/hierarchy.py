@@ -119,6 +119,7 @@ class CapsuleTree:
         self.chord_sq = np.einsum("ij,ij->i", self.chord, self.chord)
         self.inv_chord_sq = inverse(self.chord_sq)
         self.homogeneous = np.vstack([self.points.T, np.ones(len(self.points))])
+        self.span = self.p1 - self.p0
 
     @cached_property
     def start_t(self):
@@ -193,7 +194,7 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     for depth in range(top, bottom + 1):
         i0 = tb.p0[nb] + pose * (3 * n_b) + xyz                     # (3, E) coordinates
         q0 = moved[i0]
-        v = moved[i0 + (tb.p1[nb] - tb.p0[nb])] - q0
+        v = moved[i0 + tb.span[nb]] - q0
         u = ta.chord_t[:, na]
         r = ta.start_t[:, na] - q0
         s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], (u * v).sum(axis=0),
@@ -201,14 +202,14 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
                               tb.inv_chord_sq[nb])
         r += s * u - t * v
         dist = np.sqrt((r * r).sum(axis=0))
-        upper = np.maximum(dist - ta.inner[na] - tb.inner[nb], 0.0)
+        upper = dist - ta.inner[na] - tb.inner[nb]
         lower = dist - ta.outer[na] - tb.outer[nb]
         if stop_below is None:
-            np.minimum.at(bound, pose, upper)
+            np.minimum.at(bound, pose, np.maximum(upper, 0.0))
             keep = np.flatnonzero(lower <= bound[pose])
         else:
-            hit = upper <= cap
-            bound[pose[hit]] = upper[hit]
+            hit = np.flatnonzero(upper <= cap)
+            bound[pose[hit]] = np.maximum(upper[hit], 0.0)
             keep = np.flatnonzero((lower <= cap) & (bound[pose] > cap))
         pose, na, nb = pose[keep], na[keep], nb[keep]
         if depth == bottom:
