@@ -193,15 +193,14 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     na, nb = np.tile(np.repeat(na, len(nb)), count), np.tile(nb, count * len(na))
     for depth in range(top, bottom + 1):
         i0 = tb.p0[nb] + pose * (3 * n_b) + xyz                     # (3, E) coordinates
-        q0 = moved[i0]
-        v = moved[i0 + tb.span[nb]] - q0
-        u = ta.chord_t[:, na]
-        r = ta.start_t[:, na] - q0
-        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], (u * v).sum(axis=0),
-                              (u * r).sum(axis=0), (v * r).sum(axis=0), ta.inv_chord_sq[na],
-                              tb.inv_chord_sq[nb])
+        q0 = np.take(moved, i0)
+        v = np.take(moved, i0 + tb.span[nb]) - q0
+        u = np.take(ta.chord_t, na, axis=1)
+        r = np.take(ta.start_t, na, axis=1) - q0
+        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], _dots(u, v), _dots(u, r),
+                              _dots(v, r), ta.inv_chord_sq[na], tb.inv_chord_sq[nb])
         r += s * u - t * v
-        dist = np.sqrt((r * r).sum(axis=0))
+        dist = np.sqrt(_dots(r, r))
         upper = dist - ta.inner[na] - tb.inner[nb]
         lower = dist - ta.outer[na] - tb.outer[nb]
         if stop_below is None:
@@ -222,6 +221,11 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     if exact and pose.size:
         ua, ub = ta.unit[na - 2 ** ta.depth + 1], tb.unit[nb - 2 ** tb.depth + 1]
         _exact(chain_a, chain_b, moved, n_b, pose, ua, ub, gap, units, params)
+
+
+def _dots(a, b):
+    """Column-wise dot products of (3, E) arrays."""
+    return np.einsum("ij,ij->j", a, b)
 
 
 def _level(tree, depth):
