@@ -18,7 +18,8 @@ Part 2, pipe vs pipe: two safety pipes at 10,000 random relative poses:
 cadpipe's analytic chains (per pose, batched over all poses, and batched through
 the whole ``check_many`` funnel) against the same pipes' meshes in FCL.
 
-Every figure is the best of ``--repeat`` runs (the machine is shared).
+Every figure is the best of ``--repeat`` runs after a warm-up run (the machine is
+shared).
 
 Run: .venv/bin/python benchmarks/bench_collision.py [--configs N] [--repeat R]
 """
@@ -37,7 +38,9 @@ from cadpipe.collision.bodies import as_body
 
 
 def best_of(repeat, run):
-    """``(seconds, result)`` of the fastest of ``repeat`` runs of ``run()``."""
+    """``(seconds, result)`` of the fastest of ``repeat`` runs of ``run()``, after one
+    untimed run (caches, lazily built trees, the allocator's first growth)."""
+    run()
     best = None
     for _ in range(repeat):
         start = time.perf_counter()
