@@ -24,7 +24,7 @@ KDOP_DIRECTIONS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1],
                             [1, 0, -1], [0, 1, 1], [0, 1, -1]], np.float64)
 KDOP_DIRECTIONS /= np.linalg.norm(KDOP_DIRECTIONS, axis=1, keepdims=True)
 #: cross products by index: (a x b)_i = a_(i+1) b_(i+2) - a_(i+2) b_(i+1)
-NEXT, AFTER = [1, 2, 0], [2, 0, 1]
+NEXT, AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])
 #: the eight corners of a box, as signs of its half extents
 CORNER_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 #: below this many objects, testing all pairs at once beats sorting them
@@ -76,7 +76,7 @@ def kdop_polytope(points, obb):
 
 def boxes_overlap(lo_a, hi_a, lo_b, hi_b):
     """Whether intervals overlap on every axis, vectorized over the leading axes."""
-    return np.all((lo_a <= hi_b) & (lo_b <= hi_a), axis=-1)
+    return np.logical_and.reduce((lo_a <= hi_b) & (lo_b <= hi_a), axis=-1)
 
 
 def obb_overlap(centre_a, axes_a, half_a, centre_b, axes_b, half_b):
@@ -88,7 +88,7 @@ def obb_overlap(centre_a, axes_a, half_a, centre_b, axes_b, half_b):
     projections proves the boxes apart; a tolerance relative to the boxes' size
     keeps rounding on near-parallel edges (tiny cross products) from doing so.
     """
-    rows_a, rows_b = np.swapaxes(axes_a, 1, 2), np.swapaxes(axes_b, 1, 2)
+    rows_a, rows_b = axes_a.swapaxes(1, 2), axes_b.swapaxes(1, 2)
     a, b = rows_a[:, :, None], rows_b[:, None, :]
     crossed = (a[..., NEXT] * b[..., AFTER] - a[..., AFTER] * b[..., NEXT]).reshape(-1, 9, 3)
     axes = np.concatenate([rows_a, rows_b, crossed], axis=1)                # (K, 15, 3)
@@ -96,8 +96,8 @@ def obb_overlap(centre_a, axes_a, half_a, centre_b, axes_b, half_b):
     gap = np.abs(axes @ offset[:, :, None])[:, :, 0]
     reach = (np.abs(axes @ axes_a) @ half_a[:, :, None] + np.abs(axes @ axes_b)
              @ half_b[:, :, None])[:, :, 0]
-    slack = 1e-12 * (np.abs(offset).sum(axis=1) + half_a.sum(axis=1) + half_b.sum(axis=1))
-    return ~np.any(gap > reach + slack[:, None], axis=1)
+    slack = 1e-12 * (np.abs(offset) + half_a + half_b).sum(axis=1)
+    return ~np.logical_or.reduce(gap > reach + slack[:, None], axis=1)
 
 
 class Supports:
@@ -135,9 +135,9 @@ class Supports:
         kdop = np.empty((len(ids), 2, 9))
         offset = shift @ KDOP_DIRECTIONS.T
         group = self.group[ids]
-        for g in np.unique(group):
+        for g in np.bincount(group, minlength=len(self.points)).nonzero()[0]:
             points, pad = self.points[g], self.pads[g]
-            members = np.flatnonzero(group == g)
+            members = (group == g).nonzero()[0]
             for start in range(0, len(members), PLACE_CHUNK):
                 e = members[start:start + PLACE_CHUNK]
                 rows = self.row[ids[e]]

@@ -205,11 +205,11 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
         lower = dist - ta.outer[na] - tb.outer[nb]
         if stop_below is None:
             np.minimum.at(bound, pose, np.maximum(upper, 0.0))
-            keep = np.flatnonzero(lower <= bound[pose])
+            keep = (lower <= bound[pose]).nonzero()[0]
         else:
-            hit = np.flatnonzero(upper <= cap)
+            hit = (upper <= cap).nonzero()[0]
             bound[pose[hit]] = np.maximum(upper[hit], 0.0)
-            keep = np.flatnonzero((lower <= cap) & (bound[pose] > cap))
+            keep = ((lower <= cap) & (bound[pose] > cap)).nonzero()[0]
         pose, na, nb = pose[keep], na[keep], nb[keep]
         if depth == bottom:
             break

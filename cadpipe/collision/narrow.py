@@ -13,6 +13,8 @@ Every pair is evaluated in the mesh's own frame, so a BVH is built once per
 body and never refitted. Touching counts as contact.
 """
 
+from functools import cache
+
 import numpy as np
 
 from .bounds import KDOP_DIRECTIONS
@@ -25,7 +27,7 @@ INSIDE = 0.5
 
 def relative(pose_a, pose_b):
     """Poses of b in a's frame, vectorized over leading axes."""
-    rot = np.swapaxes(pose_a[..., :3, :3], -1, -2)
+    rot = pose_a[..., :3, :3].swapaxes(-1, -2)
     inv = np.zeros(pose_a.shape)
     inv[..., :3, :3] = rot
     inv[..., :3, 3] = -(rot @ pose_a[..., :3, 3, None])[..., 0]
@@ -35,7 +37,7 @@ def relative(pose_a, pose_b):
 
 def _apply(matrix, points):
     """Points (..., K, 3) moved by matrices (..., 4, 4)."""
-    return points @ np.swapaxes(matrix[..., :3, :3], -1, -2) + matrix[..., None, :3, 3]
+    return points @ matrix[..., :3, :3].swapaxes(-1, -2) + matrix[..., None, :3, 3]
 
 
 def winding_numbers(triangles, points):
@@ -106,7 +108,7 @@ def mesh_contains(body, points):
     probe = fcl.CollisionObject(fcl.Sphere(0.0), fcl.Transform())
     request = fcl.DistanceRequest(enable_nearest_points=True)
     unsure = []
-    for k in np.flatnonzero(inside):
+    for k in inside.nonzero()[0]:
         probe.setTransform(fcl.Transform(points[k]))
         result = fcl.DistanceResult()
         fcl.distance(mesh_object, probe, request, result)
@@ -180,7 +182,7 @@ def collide(body_a, poses_a, body_b, poses_b):
     rel = relative(poses_a, poses_b)
     touching = (_mesh_mesh if body_b.kind == "mesh" else _mesh_chain)(body_a, body_b, rel)
     contained = np.zeros(len(rel), bool)
-    apart = np.flatnonzero(~touching)
+    apart = (~touching).nonzero()[0]
     # no boundaries cross: one solid is inside the other exactly when a probe is
     if apart.size:
         contained[apart] = _inside(body_a, body_b, rel[apart])
@@ -197,25 +199,37 @@ def _inside(mesh_body, other, rel):
     """Whether ``other``, placed by each of ``rel`` (E, 4, 4) in the mesh's frame and
     touching no triangle, lies inside the mesh.
 
-    Only where its extreme points all fit the mesh's own 18-DOP (a solid inside
-    another lies inside the other's hull) is its probe tested against the mesh.
+    Its probe is tested against the mesh only where it lies in the mesh's box and
+    the other body's extreme points all fit the mesh's own 18-DOP (a solid inside
+    another lies inside the other's hull).
     """
-    lo, hi = mesh_body.local_kdop
-    reach = _apply(rel, other.extremes) @ KDOP_DIRECTIONS.T                  # (E, 18, 9)
-    slack = 1e-9 * float(np.max(hi - lo, initial=1.0))
-    fits = np.flatnonzero(np.all((reach >= lo - slack) & (reach <= hi + slack), axis=(1, 2)))
+    points = _apply(rel, other.probes)                                       # (E, K, 3)
+    lo, hi = mesh_body.mesh.bounds
+    in_box = np.logical_and.reduce((points >= lo) & (points <= hi), axis=2)
+    near = np.logical_or.reduce(in_box, axis=1).nonzero()[0]
     inside = np.zeros(len(rel), bool)
-    if fits.size:
-        points = _apply(rel[fits], other.probes)
-        inside[fits] = mesh_contains(mesh_body, points.reshape(-1, 3)).reshape(
-            points.shape[:2]).any(axis=1)
+    if near.size:
+        low, high = mesh_body.local_kdop
+        reach = _apply(rel[near], other.extremes) @ KDOP_DIRECTIONS.T         # (e, 18, 9)
+        slack = 1e-9 * float(np.max(high - low))
+        near = near[np.all((reach >= low - slack) & (reach <= high + slack), axis=(1, 2))]
+        found = mesh_contains(mesh_body, points[near].reshape(-1, 3))
+        inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
     return inside
+
+
+@cache
+def _yes_no():
+    """FCL's request for a plain yes/no answer (one contact, no contact data)."""
+    import fcl
+
+    return fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
 
 
 def _mesh_mesh(body_a, body_b, rel):
     import fcl
 
-    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
+    request = _yes_no()
     anchor, mover = body_a.fcl_anchor, body_b.fcl_mover
     touching = np.zeros(len(rel), bool)
     for e, pose in enumerate(rel):
@@ -230,14 +244,15 @@ def _near_units(mesh_body, chain_body, rel):
     centre, radius = chain_body.chain.unit_spheres
     lo, hi = mesh_body.mesh.bounds
     moved = _apply(rel, centre)                                            # (E, U, 3)
-    entry, unit = np.nonzero(np.linalg.norm(moved - np.clip(moved, lo, hi), axis=2) <= radius)
+    out = moved - np.minimum(np.maximum(moved, lo), hi)
+    entry, unit = np.nonzero(np.einsum("eui,eui->eu", out, out) <= radius * radius)
     return entry, unit, rel[entry] @ chain_body.fcl_units[1][unit]
 
 
 def _mesh_chain(mesh_body, chain_body, rel):
     import fcl
 
-    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
+    request = _yes_no()
     objects = chain_body.fcl_units[0]
     touching = np.zeros(len(rel), bool)
     for e, unit, pose in zip(*_near_units(mesh_body, chain_body, rel)):

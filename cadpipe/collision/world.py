@@ -136,7 +136,7 @@ class CollisionReport:
 
     @cached_property
     def collisions(self):
-        hits = self._order(np.flatnonzero(self._colliding))
+        hits = self._order(self._colliding.nonzero()[0])
         return [(r.a, r.b, r) for r in map(self._result, hits)]
 
     def _order(self, ks):
@@ -344,7 +344,7 @@ class CollisionWorld:
             self._placed = (np.zeros((n, 2, 9)), np.zeros((n, 3)), np.zeros((n, 3, 3)))
             self._stale[:] = True
         if self._stale.any():
-            ids = np.flatnonzero(self._stale)
+            ids = self._stale.nonzero()[0]
             for target, value in zip(self._placed, self._supports.place(
                     ids, self._poses[ids, :3, :3], self._poses[ids, :3, 3])):
                 target[ids] = value
@@ -463,8 +463,8 @@ class CollisionWorld:
             moving = np.zeros(n, bool)
             moving[ids] = True
             standing = standing & ~moving[first] & ~moving[second]
-        k = np.flatnonzero(standing & bounds.overlapping_pairs(kdop[:, 0, :3], kdop[:, 1, :3],
-                                                                first, second))
+        near = bounds.overlapping_pairs(kdop[:, 0, :3], kdop[:, 1, :3], first, second)
+        k = (standing & near).nonzero()[0]
         config, slot_a, slot_b = np.full(len(k), -1), first[k], second[k]
         objects, slot_poses = np.arange(n), self._poses
         if m:
@@ -502,9 +502,9 @@ class CollisionWorld:
         first, second, same, allowed = self._pairs()
         certificates = {}
         own = same[k]
-        self._decide(config, k, poses_a, poses_b, np.flatnonzero(own), codes, colliding,
+        self._decide(config, k, poses_a, poses_b, own.nonzero()[0], codes, colliding,
                      certificates, certify)
-        world = np.flatnonzero(~own)
+        world = (~own).nonzero()[0]
         if stop_after_self:
             stopped[:] = colliding[:, same].any(axis=1)
             at = config[world]
