@@ -184,8 +184,9 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     cap = np.inf if stop_below is None else float(stop_below)
     exact = stop_below is None or not (ta.capsule_leaves and tb.capsule_leaves)
     bound = np.full(count, np.inf)                 # a proven upper bound of each gap
-    # the roots' test is left out (the broad phase has compared the whole chains), and
-    # few poses start deeper still: fewer passes, each over more node pairs
+    # the roots' test is left out (whole chains' capsules nearly always meet, and the
+    # world's broad phase has compared them), and few poses start deeper still: fewer
+    # passes, each over more node pairs
     bottom = max(ta.depth, tb.depth)
     top = min(max(int(np.log(max(START / count, 1.0)) / np.log(4.0)), 1), bottom)
     na, nb = _level(ta, top), _level(tb, top)
