@@ -255,7 +255,7 @@ def _chunk_pairs(samples, points, reach, spacing, chunk, band):
     One KD-tree holds every tube's chunks, each tube scaled by that distance and laid
     apart from the others, so a single query radius finds each tube's own pairs.
     """
-    from scipy.spatial import cKDTree      # imported here: the CLI starts faster without it
+    from scipy.spatial import cKDTree  # imported here: the CLI starts faster without it
 
     n = samples.counts
     chunks = Groups(-(-n // chunk), samples.closed)

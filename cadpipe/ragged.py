@@ -11,7 +11,6 @@ from functools import cached_property
 
 import numpy as np
 
-
 #: rows per block for per-point work done block by block (see :func:`blocks`)
 BLOCK = 16384
 

@@ -286,7 +286,7 @@ def _robot(ctx, *, urdf: str, srdf: str | None = None, joints: list | dict | Non
     if base is not None and not is_rigid(base):
         raise InputError("transform: a robot's base only rotates and translates; "
                          "remove scale")
-    values = robot.joint_values(joints)
+    values = dict(zip((j.name for j in robot.joints), robot.joint_array(joints)[0].tolist()))
     return PosedRobot(robot, {k: values[k] for k in robot.actuated}, base,
                       robot.name if group is None else group, color)
 

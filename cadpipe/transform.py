@@ -22,10 +22,13 @@ def as_matrix(value, name="transform"):
 
 
 def is_rigid(matrix):
-    """Whether a 4x4 ``matrix`` only rotates and translates (no scale, shear or mirror)."""
-    rot = matrix[:3, :3]
-    return bool(np.abs(matrix[3] - (0.0, 0.0, 0.0, 1.0)).max() <= 1e-9
-                and np.abs(rot.T @ rot - np.eye(3)).max() <= 1e-6 and np.linalg.det(rot) > 0)
+    """Whether a 4x4 ``matrix`` (or every one of a stack) only rotates and translates
+    (no scale, shear or mirror)."""
+    m = np.asarray(matrix)
+    rot = m[..., :3, :3]
+    return bool(np.abs(m[..., 3, :] - (0.0, 0.0, 0.0, 1.0)).max(initial=0.0) <= 1e-9
+                and np.abs(np.swapaxes(rot, -1, -2) @ rot - np.eye(3)).max(initial=0.0) <= 1e-6
+                and np.all(np.linalg.det(rot) > 0))
 
 
 def _three(value, name):

@@ -69,6 +69,8 @@ def collect(shape_a, shape_b, seed, count, spread):
         if pair.colliding or pair.decided_by == "aabb":
             continue
         cert = world.separate("a", "b")
+        if cert is not None and cert.kind == "boxes":
+            continue          # the exact boxes are apart (the broad phase's are looser)
         kinds.append(None if cert is None else cert.kind)
         if cert is not None:
             assert cert.verify() and verify(cert) == (True, "chain separates the objects") \

@@ -149,7 +149,8 @@ def test_figures_regenerate_small_drawn_and_referenced(tmp_path):
             pixels = np.asarray(Image.open(path).convert("L"), dtype=float)
             assert pixels.std() > 10, f"{path} looks blank"
         else:
-            shapes = [e for e in ElementTree.parse(path).iter() if e.tag.endswith(("polygon", "path"))]
+            shapes = [e for e in ElementTree.parse(path).iter()
+                      if e.tag.endswith(("polygon", "path"))]
             assert len(shapes) >= 2, f"{path} draws nothing"
     for path in committed:
         assert f"(figures/{path.name})" in algorithms, f"algorithms.md does not show {path.name}"

@@ -10,8 +10,8 @@ from .cell import world_from_spec
 from .certificate import Certificate
 from .fixture import PipeContainment
 from .robot import Joint, Robot, srdf_disabled_pairs
-from .world import STAGES, Clearance, CollisionReport, CollisionWorld, PairResult
+from .world import STAGES, Clearance, CollisionReport, CollisionReports, CollisionWorld, PairResult
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
-           "CollisionWorld", "Joint", "PairResult", "PipeContainment", "Robot", "Sphere",
-           "srdf_disabled_pairs", "world_from_spec"]
+           "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment",
+           "Robot", "Sphere", "srdf_disabled_pairs", "world_from_spec"]

@@ -89,6 +89,34 @@ class Body:
         return bounds.fit_obb(*self.hull)
 
     @cached_property
+    def support(self):
+        """Points and padding the world 18-DOP is computed from each pose: a chain's
+        balls (exact); a mesh's hull vertices or, when fewer, the vertices of
+        :func:`~cadpipe.collision.bounds.kdop_polytope` around them."""
+        points, pad = self.hull
+        if self.kind == "chain":
+            return points, pad
+        polytope = bounds.kdop_polytope(points, self.obb)
+        return (polytope, np.zeros(len(polytope))) if len(polytope) < len(points) \
+            else (points, pad)
+
+    @cached_property
+    def local_kdop(self):
+        """(2, 9) slabs of the body's hull on the 18-DOP directions, in its own frame."""
+        points, pad = self.hull
+        proj = points @ bounds.KDOP_DIRECTIONS.T
+        return (proj - pad[:, None]).min(axis=0), (proj + pad[:, None]).max(axis=0)
+
+    @cached_property
+    def extremes(self):
+        """(18, 3) points of the body farthest along each 18-DOP direction, both ways:
+        a solid inside another has all of them inside the other's hull."""
+        points, pad = self.hull
+        directions = np.concatenate([bounds.KDOP_DIRECTIONS, -bounds.KDOP_DIRECTIONS])
+        far = np.argmax(points @ directions.T + pad[:, None], axis=0)
+        return points[far] + pad[far, None] * directions
+
+    @cached_property
     def probes(self):
         """One point of each connected piece: if no boundaries touch, a piece is
         inside another solid exactly when its probe is."""

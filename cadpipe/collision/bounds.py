@@ -5,14 +5,15 @@ disjoint (the object lies inside its volume), tried from cheapest to tightest:
 
 * AABB, the world-axis box, paired up for the whole scene by sweep-and-prune;
 * 18-DOP, the slab on each of 9 fixed world directions (axes and face
-  diagonals), recomputed from the object's convex-hull points each pose (its
+  diagonals), recomputed each pose from the object's support points (its
   first three slabs are the AABB);
 * OBB, a box fitted once in the object's own frame (trimesh's minimum-volume
   box) that moves with it, compared by the separating-axis theorem (15 axes).
 
-Objects are described by points plus a per-point padding radius, so a mesh
-(its hull vertices, pad 0) and a chain of balls (centres, pad = radius) share
-every function here. All tests are vectorized over pairs.
+Support points carry a per-point padding radius, so a mesh (the vertices of
+its local 18-DOP cut by its OBB, pad 0: a few dozen points however fine the
+mesh) and a chain of balls (centres, pad = radius: exact) share every function
+here. All tests are vectorized over pairs.
 """
 
 import numpy as np
@@ -22,19 +23,14 @@ KDOP_DIRECTIONS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1],
                             [1, 1, 0], [1, -1, 0], [1, 0, 1],
                             [1, 0, -1], [0, 1, 1], [0, 1, -1]], np.float64)
 KDOP_DIRECTIONS /= np.linalg.norm(KDOP_DIRECTIONS, axis=1, keepdims=True)
+#: cross products by index: (a x b)_i = a_(i+1) b_(i+2) - a_(i+2) b_(i+1)
+NEXT, AFTER = np.array([1, 2, 0]), np.array([2, 0, 1])
+#: the eight corners of a box, as signs of its half extents
+CORNER_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 #: below this many objects, testing all pairs at once beats sorting them
 SWEEP_MIN_OBJECTS = 48
-
-
-def aabb(points, pad):
-    """(2, 3) box of balls ``B(points[i], pad[i])``."""
-    return np.array([(points - pad[:, None]).min(axis=0), (points + pad[:, None]).max(axis=0)])
-
-
-def kdop(points, pad):
-    """(2, 9) slab of the balls on each of :data:`KDOP_DIRECTIONS`."""
-    proj = points @ KDOP_DIRECTIONS.T
-    return np.array([(proj - pad[:, None]).min(axis=0), (proj + pad[:, None]).max(axis=0)])
+#: placed objects per batched product in :meth:`Supports.place` (bounds memory)
+PLACE_CHUNK = 4096
 
 
 def fit_obb(points, pad):
@@ -55,36 +51,105 @@ def fit_obb(points, pad):
     return centre, axes, 0.5 * np.asarray(extents) + float(np.max(pad, initial=0.0))
 
 
+def kdop_polytope(points, obb):
+    """Vertices of the local 18-DOP of ``points`` cut by their OBB: a polytope that
+    contains the points' hull with few vertices, so a mesh's world 18-DOP can be
+    recomputed from it each pose at a fraction of the hull's cost.
+
+    Every face is dilated by 1e-9 of the size, so rounding in the vertices never
+    leaves part of the hull outside. Falls back to the OBB's corners where qhull
+    cannot build the polytope (flat point sets).
+    """
+    from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
+
+    centre, axes, half = obb
+    corners = centre + (CORNER_SIGNS * half) @ axes.T
+    normals = np.concatenate([KDOP_DIRECTIONS, -KDOP_DIRECTIONS, axes.T, -axes.T])
+    reach = (points @ normals.T).max(axis=0) + 1e-9 * max(float(np.ptp(points)), 1.0)
+    try:
+        vertices = HalfspaceIntersection(np.c_[normals, -reach], points.mean(axis=0))
+        vertices = vertices.intersections
+        return vertices[ConvexHull(vertices).vertices]
+    except (QhullError, ValueError):
+        return corners
+
+
 def boxes_overlap(lo_a, hi_a, lo_b, hi_b):
     """Whether intervals overlap on every axis, vectorized over the leading axes."""
-    return np.all((lo_a <= hi_b) & (lo_b <= hi_a), axis=-1)
+    return np.logical_and.reduce((lo_a <= hi_b) & (lo_b <= hi_a), axis=-1)
 
 
 def obb_overlap(centre_a, axes_a, half_a, centre_b, axes_b, half_b):
     """Separating-axis test of oriented boxes, vectorized over pairs ``(K, ...)``.
 
     The 15 candidate axes (3 + 3 face normals, 9 edge cross products;
-    Gottschalk et al. 1996) in the closed form of Ericson's "Real-Time
-    Collision Detection" (4.4.1), all pairs at once. A small epsilon on the
-    rotation keeps near-parallel edges from separating boxes that touch.
+    Gottschalk et al. 1996) are built explicitly and everything is projected on
+    them in a few stacked products. Any nonzero axis that separates the
+    projections proves the boxes apart; a tolerance relative to the boxes' size
+    keeps rounding on near-parallel edges (tiny cross products) from doing so.
     """
-    rot = np.swapaxes(axes_a, 1, 2) @ axes_b                       # B's axes in A's frame
-    t = (np.swapaxes(axes_a, 1, 2) @ (centre_b - centre_a)[:, :, None])[:, :, 0]
-    absr = np.abs(rot) + 1e-12
-    reach_b = (absr @ half_b[:, :, None])[:, :, 0]
-    sep = np.any(np.abs(t) > half_a + reach_b, axis=1)
-    reach_a = (half_a[:, None, :] @ absr)[:, 0]
-    sep |= np.any(np.abs((t[:, None, :] @ rot)[:, 0]) > reach_a + half_b, axis=1)
-    # A_i x B_j for all i, j at once; index (i + 1) % 3 and (i + 2) % 3 by slicing
-    # doubled arrays, which is far cheaper than fancy indexing
-    t2, r2 = np.concatenate([t, t], axis=1), np.concatenate([rot, rot], axis=1)
-    ar2, ac2 = np.concatenate([absr, absr], axis=1), np.concatenate([absr, absr], axis=2)
-    ha2, hb2 = np.concatenate([half_a, half_a], axis=1), np.concatenate([half_b, half_b], axis=1)
-    dist = np.abs(t2[:, 2:5, None] * r2[:, 1:4] - t2[:, 1:4, None] * r2[:, 2:5])
-    reach = (ha2[:, 1:4, None] * ar2[:, 2:5] + ha2[:, 2:5, None] * ar2[:, 1:4]
-             + hb2[:, None, 1:4] * ac2[:, :, 2:5] + hb2[:, None, 2:5] * ac2[:, :, 1:4])
-    sep |= np.any(dist > reach, axis=(1, 2))
-    return ~sep
+    rows_a, rows_b = axes_a.swapaxes(1, 2), axes_b.swapaxes(1, 2)
+    a, b = rows_a[:, :, None], rows_b[:, None, :]
+    crossed = (a[..., NEXT] * b[..., AFTER] - a[..., AFTER] * b[..., NEXT]).reshape(-1, 9, 3)
+    axes = np.concatenate([rows_a, rows_b, crossed], axis=1)                # (K, 15, 3)
+    offset = centre_b - centre_a
+    gap = np.abs(axes @ offset[:, :, None])[:, :, 0]
+    reach = (np.abs(axes @ axes_a) @ half_a[:, :, None] + np.abs(axes @ axes_b)
+             @ half_b[:, :, None])[:, :, 0]
+    slack = 1e-12 * (np.abs(offset) + half_a + half_b).sum(axis=1)
+    return ~np.logical_or.reduce(gap > reach + slack[:, None], axis=1)
+
+
+class Supports:
+    """Every object's support points (whose padded hull contains it) and local OBB,
+    packed so the bounds of many placed objects come out of a few batched products.
+
+    Points are grouped by count (multiples of 8, padded by repeating a
+    point), one array per group laid out as coordinates then points, so the
+    reductions run along contiguous rows.
+    """
+
+    def __init__(self, supports, obbs):
+        counts = [len(p) for p, _ in supports]
+        sizes = [8 * -(-c // 8) for c in counts]
+        self.groups = sorted(set(sizes))
+        self.group = np.array([self.groups.index(size) for size in sizes], np.int64)
+        self.row = np.zeros(len(supports), np.int64)
+        self.points, self.pads = [], []
+        for g, size in enumerate(self.groups):
+            members = np.flatnonzero(self.group == g)
+            self.row[members] = np.arange(len(members))
+            fill = [np.r_[np.arange(counts[i]), np.zeros(size - counts[i], np.int64)]
+                    for i in members]
+            self.points.append(np.stack([supports[i][0][f].T for i, f in zip(members, fill)]))
+            pad = np.stack([supports[i][1][f][None] for i, f in zip(members, fill)])
+            self.pads.append(pad if pad.any() else None)
+        self.centre = np.array([o[0] for o in obbs]).reshape(-1, 3)
+        self.axes = np.array([o[1] for o in obbs]).reshape(-1, 3, 3)
+        self.half = np.array([o[2] for o in obbs]).reshape(-1, 3)
+
+    def place(self, ids, rot, shift):
+        """Bounds of objects ``ids`` (E,) turned by ``rot`` (E, 3, 3) and moved by
+        ``shift`` (E, 3): the world 18-DOP (E, 2, 9) (its first three slabs are
+        the AABB) and OBB centre (E, 3) and axes (E, 3, 3)."""
+        kdop = np.empty((len(ids), 2, 9))
+        offset = shift @ KDOP_DIRECTIONS.T
+        group = self.group[ids]
+        for g in np.bincount(group, minlength=len(self.points)).nonzero()[0]:
+            points, pad = self.points[g], self.pads[g]
+            members = (group == g).nonzero()[0]
+            for start in range(0, len(members), PLACE_CHUNK):
+                e = members[start:start + PLACE_CHUNK]
+                rows = self.row[ids[e]]
+                # project the support points on the world directions turned into each frame
+                proj = (KDOP_DIRECTIONS @ rot[e]) @ points[rows]                 # (k, 9, size)
+                if pad is None:
+                    low, high = proj.min(axis=2), proj.max(axis=2)
+                else:
+                    low, high = (proj - pad[rows]).min(axis=2), (proj + pad[rows]).max(axis=2)
+                kdop[e, 0], kdop[e, 1] = low + offset[e], high + offset[e]
+        centre = (rot @ self.centre[ids][:, :, None])[:, :, 0] + shift
+        return kdop, centre, rot @ self.axes[ids]
 
 
 def sweep_and_prune(lo, hi):

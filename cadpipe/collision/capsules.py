@@ -13,15 +13,14 @@ the union of the balls ``B(a + s (b - a), ra + s (rb - ra))`` for ``s`` in
   inside or on one of the four edges -- each found in closed form.
 
 A chain is the union of its units. Everything is vectorized over units, unit
-pairs and query points: no triangle is ever looked at.
+pairs and query points (and, through :mod:`cadpipe.collision.hierarchy`, over
+many poses of one chain against another): no triangle is ever looked at.
 """
 
 from functools import cached_property
 
 import numpy as np
 
-#: units per block of the two-level pruning hierarchy
-BLOCK = 8
 #: cap on (points x units) or (unit pairs) elements evaluated per numpy batch
 BATCH = 1 << 18
 
@@ -91,23 +90,37 @@ def _edge_minimum(c, w, k):
     return np.clip(x, 0.0, 1.0)
 
 
+def inverse(x):
+    """``1 / x``, and 0 where ``x`` is 0 (a zero-length segment's squared length) or
+    too small to invert."""
+    usable = x > np.finfo(np.float64).tiny
+    return np.where(usable, 1.0 / np.where(usable, x, 1.0), 0.0)
+
+
+def segment_params(uu, vv, uv, ur, vr, inv_uu, inv_vv):
+    """Parameters ``(s, t)`` of the closest points of segments ``p0 + s u`` and
+    ``q0 + t v``, from the dot products of ``u``, ``v`` and ``r = p0 - q0`` and the
+    :func:`inverse` squared lengths (callers holding coordinates in any layout
+    share it).
+
+    Ericson's clamping ("Real-Time Collision Detection", 5.1.9), except that
+    ``s`` is always recomputed from the clamped ``t``: that pair is never
+    farther apart than his, so it is a closest pair too, and zero-length
+    segments (inverse 0) need no branch of their own.
+    """
+    square = uu * vv
+    den = square - uv * uv
+    s = np.clip((uv * vr - ur * vv) / np.maximum(den, 1e-300), 0.0, 1.0)
+    s = np.where(den > 1e-14 * square, s, 0.0)
+    t = np.clip((uv * s + vr) * inv_vv, 0.0, 1.0)
+    return np.clip((uv * t - ur) * inv_uu, 0.0, 1.0), t
+
+
 def _segment_closest(p0, u, q0, v):
     """Parameters of the closest points of segments ``p0 + s u`` and ``q0 + t v``."""
     r = p0 - q0
-    a, e, b = _dot(u, u), _dot(v, v), _dot(u, v)
-    c, f = _dot(u, r), _dot(v, r)
-    den = a * e - b * b
-    safe_a = np.where(a > 0, a, 1.0)
-    safe_e = np.where(e > 0, e, 1.0)
-    s = np.where(den > 1e-14 * np.maximum(a * e, 1e-300),
-                 np.clip((b * f - c * e) / np.where(den != 0, den, 1.0), 0.0, 1.0), 0.0)
-    t = (b * s + f) / safe_e
-    t_clamped = np.clip(t, 0.0, 1.0)
-    s = np.where(t != t_clamped, np.clip((b * t_clamped - c) / safe_a, 0.0, 1.0), s)
-    s = np.where(e > 0, s, np.clip(-c / safe_a, 0.0, 1.0))
-    s = np.where(a > 0, s, 0.0)
-    t = np.where(e > 0, t_clamped, 0.0)
-    return s, t
+    uu, vv = _dot(u, u), _dot(v, v)
+    return segment_params(uu, vv, _dot(u, v), _dot(u, r), _dot(v, r), inverse(uu), inverse(vv))
 
 
 def _interior_stationary(p0, u, q0, v, dr, drho, sign):
@@ -198,12 +211,10 @@ class Chain:
         The units, as index pairs into ``centers`` (``(i, i)`` is a lone ball).
     """
 
-    def __init__(self, centers, radii, edges, blocks=None):
+    def __init__(self, centers, radii, edges):
         self.centers, self.radii, self.edges = centers, radii, edges
         self.starts, self.ends = centers[edges[:, 0]], centers[edges[:, 1]]
         self.start_radii, self.end_radii = radii[edges[:, 0]], radii[edges[:, 1]]
-        if blocks is not None:
-            self.__dict__["blocks"] = blocks
 
     @classmethod
     def along(cls, points, radii, closed=False):
@@ -218,11 +229,8 @@ class Chain:
         return cls(points, np.broadcast_to(np.asarray(radii, np.float64), (n,)).copy(), edges)
 
     def moved(self, matrix):
-        """The chain moved by a rigid 4x4 matrix (its block spheres move along)."""
-        rot, shift = matrix[:3, :3], matrix[:3, 3]
-        centre, radius, index = self.blocks
-        return Chain(self.centers @ rot.T + shift, self.radii, self.edges,
-                     (centre @ rot.T + shift, radius, index))
+        """The chain moved by a rigid 4x4 matrix."""
+        return Chain(self.centers @ matrix[:3, :3].T + matrix[:3, 3], self.radii, self.edges)
 
     @cached_property
     def unit_spheres(self):
@@ -240,24 +248,11 @@ class Chain:
         return np.stack([lo, hi], axis=1)
 
     @cached_property
-    def blocks(self):
-        """Bounding spheres of runs of :data:`BLOCK` consecutive units: centre, radius,
-        and each block's unit indices (padded with -1)."""
-        count = len(self.edges)
-        n_blocks = -(-count // BLOCK)
-        index = np.arange(n_blocks * BLOCK).reshape(n_blocks, BLOCK)
-        index = np.where(index < count, index, -1)
-        valid = index >= 0
-        safe = np.where(valid, index, 0)
-        lo, hi = self.unit_bounds[safe, 0], self.unit_bounds[safe, 1]
-        lo = np.where(valid[..., None], lo, np.inf).min(axis=1)
-        hi = np.where(valid[..., None], hi, -np.inf).max(axis=1)
-        centre = 0.5 * (lo + hi)
-        rim = np.maximum(np.linalg.norm(self.starts[safe] - centre[:, None], axis=2)
-                         + self.start_radii[safe],
-                         np.linalg.norm(self.ends[safe] - centre[:, None], axis=2)
-                         + self.end_radii[safe])
-        return centre, np.where(valid, rim, 0.0).max(axis=1), index
+    def tree(self):
+        """The chain's :class:`~cadpipe.collision.hierarchy.CapsuleTree`."""
+        from .hierarchy import CapsuleTree
+
+        return CapsuleTree(self)
 
     # queries
     def signed_distance(self, points):
@@ -266,56 +261,36 @@ class Chain:
         return chain_signed_distance(points, self.starts, self.ends, self.start_radii,
                                      self.end_radii)
 
-    def gap(self, other, stop_below=None):
-        """Smallest unit-pair gap to ``other`` and the two nearest surface points.
+    def gaps(self, other, poses, stop_below=None):
+        """Smallest unit-pair gap to ``other`` placed at each of ``poses`` (P, 4, 4) in
+        this chain's frame, and the two nearest surface points (in this frame).
 
-        Block spheres prune the unit pairs: the closest block pairs are solved
-        first, then only block pairs whose lower bound beats the best gap so far.
-        With ``stop_below``, returns as soon as a gap below it is found (a yes/no
-        collision query needs no more). Returns ``(gap, point_self, point_other)``.
+        See :func:`cadpipe.collision.hierarchy.chain_gaps`; with ``stop_below``
+        only ``gap <= stop_below`` is meaningful, and the points are NaN where
+        the search stopped early. Returns ``(gap, point_self, point_other)``.
         """
-        ca, ra, ia = self.blocks
-        cb, rb, ib = other.blocks
-        lower = np.linalg.norm(ca[:, None] - cb[None], axis=2) - ra[:, None] - rb[None]
-        order = np.argsort(lower, axis=None)
-        lower = lower.ravel()[order]
-        pa, pb = np.unravel_index(order, (len(ca), len(cb)))
-        best = (np.inf, None, None)
-        first = 0
-        for size in (4, None):
-            limit = len(order) if size is None else min(size, len(order))
-            take = np.arange(first, limit)
-            take = take[lower[take] < best[0]]
-            first = limit
-            if take.size == 0:
-                continue
-            ua = ia[pa[take]][:, :, None].repeat(BLOCK, axis=2).reshape(-1)
-            ub = ib[pb[take]][:, None, :].repeat(BLOCK, axis=1).reshape(-1)
-            keep = (ua >= 0) & (ub >= 0)
-            best = min(best, self._pair_gaps(other, ua[keep], ub[keep]), key=lambda g: g[0])
-            if stop_below is not None and best[0] < stop_below:
-                break
-        return best
+        from .hierarchy import chain_gaps
 
-    def _pair_gaps(self, other, ua, ub):
-        """The best gap among the unit pairs ``(ua[k], ub[k])``, batched."""
-        best = (np.inf, None, None)
-        for start in range(0, len(ua), BATCH):
-            i, j = ua[start:start + BATCH], ub[start:start + BATCH]
-            g, s, t = unit_pair_gap(self.starts[i], self.ends[i], self.start_radii[i],
-                                    self.end_radii[i], other.starts[j], other.ends[j],
-                                    other.start_radii[j], other.end_radii[j])
-            k = int(np.argmin(g))
-            if g[k] < best[0]:
-                best = (float(g[k]), *self._surface_points(other, i[k], j[k], s[k], t[k]))
-        return best
-
-    def _surface_points(self, other, i, j, s, t):
-        p = self.starts[i] + s * (self.ends[i] - self.starts[i])
-        q = other.starts[j] + t * (other.ends[j] - other.starts[j])
+        poses = np.asarray(poses, np.float64)
+        gap, units, params = chain_gaps(self, other, poses, stop_below)
+        near, far = np.full((len(gap), 3), np.nan), np.full((len(gap), 3), np.nan)
+        k = np.flatnonzero(units[:, 0] >= 0)
+        i, j, s, t = units[k, 0], units[k, 1], params[k, 0], params[k, 1]
+        p = self.starts[i] + s[:, None] * (self.ends[i] - self.starts[i])
+        q = other.starts[j] + t[:, None] * (other.ends[j] - other.starts[j])
+        q = (poses[k, :3, :3] @ q[:, :, None])[:, :, 0] + poses[k, :3, 3]
         r = self.start_radii[i] + s * (self.end_radii[i] - self.start_radii[i])
         rho = other.start_radii[j] + t * (other.end_radii[j] - other.start_radii[j])
         d = q - p
-        norm = np.linalg.norm(d)
-        d = d / norm if norm > 0 else np.array([1.0, 0.0, 0.0])
-        return p + r * d, q - rho * d
+        norm = np.linalg.norm(d, axis=1, keepdims=True)
+        d = np.where(norm > 0, d / np.where(norm > 0, norm, 1.0), [1.0, 0.0, 0.0])
+        near[k], far[k] = p + r[:, None] * d, q - rho[:, None] * d
+        return gap, near, far
+
+    def gap(self, other, pose=None, stop_below=None):
+        """:meth:`gaps` at one pose (default: both chains in the same frame):
+        ``(gap, point_self, point_other)``, the points None where unknown."""
+        pose = np.eye(4) if pose is None else pose
+        gap, near, far = self.gaps(other, np.asarray(pose, np.float64)[None], stop_below)
+        known = not np.isnan(near[0, 0])
+        return float(gap[0]), near[0] if known else None, far[0] if known else None

@@ -13,24 +13,31 @@ Every pair is evaluated in the mesh's own frame, so a BVH is built once per
 body and never refitted. Touching counts as contact.
 """
 
+from functools import cache
+
 import numpy as np
 
+from .bounds import KDOP_DIRECTIONS
 from .capsules import BATCH
+from .hierarchy import chain_gaps
 
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
 INSIDE = 0.5
 
 
-def _relative(pose_a, pose_b):
-    """Pose of b in a's frame."""
-    inv = np.eye(4)
-    inv[:3, :3] = pose_a[:3, :3].T
-    inv[:3, 3] = -pose_a[:3, :3].T @ pose_a[:3, 3]
+def relative(pose_a, pose_b):
+    """Poses of b in a's frame, vectorized over leading axes."""
+    rot = pose_a[..., :3, :3].swapaxes(-1, -2)
+    inv = np.zeros(pose_a.shape)
+    inv[..., :3, :3] = rot
+    inv[..., :3, 3] = -(rot @ pose_a[..., :3, 3, None])[..., 0]
+    inv[..., 3, 3] = 1.0
     return inv @ pose_b
 
 
 def _apply(matrix, points):
-    return points @ matrix[:3, :3].T + matrix[:3, 3]
+    """Points (..., K, 3) moved by matrices (..., 4, 4)."""
+    return points @ matrix[..., :3, :3].swapaxes(-1, -2) + matrix[..., None, :3, 3]
 
 
 def winding_numbers(triangles, points):
@@ -101,7 +108,7 @@ def mesh_contains(body, points):
     probe = fcl.CollisionObject(fcl.Sphere(0.0), fcl.Transform())
     request = fcl.DistanceRequest(enable_nearest_points=True)
     unsure = []
-    for k in np.flatnonzero(inside):
+    for k in inside.nonzero()[0]:
         probe.setTransform(fcl.Transform(points[k]))
         result = fcl.DistanceResult()
         fcl.distance(mesh_object, probe, request, result)
@@ -158,67 +165,103 @@ def unit_poses(starts, ends):
 
 
 # -- yes / no ---------------------------------------------------------------------
-def collide(body_a, pose_a, body_b, pose_b):
-    """``(touching, decided_by)`` for two placed bodies; decided_by is
-    ``"analytic"``, ``"fcl"`` or ``"containment"``."""
+def collide(body_a, poses_a, body_b, poses_b):
+    """Do two bodies touch at each of E placements ``poses_a``, ``poses_b`` (E, 4, 4)?
+
+    Returns ``(touching, contained)``, two (E,) bool arrays: ``contained`` marks
+    contacts only the containment test saw (FCL reports no crossing). Chain
+    pairs are decided analytically for all placements at once; mesh pairs call
+    FCL once per placement (and per nearby unit), with everything around those
+    calls batched.
+    """
     if body_a.kind == "chain" and body_b.kind == "chain":
-        gap = body_a.chain.moved(pose_a).gap(body_b.chain.moved(pose_b), stop_below=0.0)[0]
-        return gap <= 0.0, "analytic"
+        gap = chain_gaps(body_a.chain, body_b.chain, relative(poses_a, poses_b), 0.0)[0]
+        return gap <= 0.0, np.zeros(len(gap), bool)
     if body_a.kind == "chain":
-        body_a, pose_a, body_b, pose_b = body_b, pose_b, body_a, pose_a
-    rel = _relative(pose_a, pose_b)
-    if body_b.kind == "mesh":
-        return _mesh_mesh(body_a, body_b, rel)
-    return _mesh_chain(body_a, body_b, rel)
+        body_a, poses_a, body_b, poses_b = body_b, poses_b, body_a, poses_a
+    rel = relative(poses_a, poses_b)
+    touching = (_mesh_mesh if body_b.kind == "mesh" else _mesh_chain)(body_a, body_b, rel)
+    contained = np.zeros(len(rel), bool)
+    apart = (~touching).nonzero()[0]
+    # no boundaries cross: one solid is inside the other exactly when a probe is
+    if apart.size:
+        contained[apart] = _inside(body_a, body_b, rel[apart])
+        rest = apart[~contained[apart]]
+        if body_b.kind == "mesh" and rest.size:
+            contained[rest] = _inside(body_b, body_a, relative(rel[rest], _EYE))
+    return touching | contained, contained
 
 
-def _placed(body, pose):
-    """The body's movable FCL object, set to ``pose``."""
+_EYE = np.eye(4)
+
+
+def _inside(mesh_body, other, rel):
+    """Whether ``other``, placed by each of ``rel`` (E, 4, 4) in the mesh's frame and
+    touching no triangle, lies inside the mesh.
+
+    Its probe is tested against the mesh only where it lies in the mesh's box and
+    the other body's extreme points all fit the mesh's own 18-DOP (a solid inside
+    another lies inside the other's hull).
+    """
+    points = _apply(rel, other.probes)                                       # (E, K, 3)
+    lo, hi = mesh_body.mesh.bounds
+    in_box = np.logical_and.reduce((points >= lo) & (points <= hi), axis=2)
+    near = np.logical_or.reduce(in_box, axis=1).nonzero()[0]
+    inside = np.zeros(len(rel), bool)
+    if near.size:
+        low, high = mesh_body.local_kdop
+        reach = _apply(rel[near], other.extremes) @ KDOP_DIRECTIONS.T         # (e, 18, 9)
+        slack = 1e-9 * float(np.max(high - low))
+        near = near[np.all((reach >= low - slack) & (reach <= high + slack), axis=(1, 2))]
+        found = mesh_contains(mesh_body, points[near].reshape(-1, 3))
+        inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
+    return inside
+
+
+@cache
+def _yes_no():
+    """FCL's request for a plain yes/no answer (one contact, no contact data)."""
     import fcl
 
-    body.fcl_mover.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
-    return body.fcl_mover
+    return fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
 
 
 def _mesh_mesh(body_a, body_b, rel):
     import fcl
 
-    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
-    if fcl.collide(body_a.fcl_anchor, _placed(body_b, rel), request, fcl.CollisionResult()):
-        return True, "fcl"
-    if mesh_contains(body_a, _apply(rel, body_b.probes)).any():
-        return True, "containment"
-    inv = _relative(rel, np.eye(4))
-    if mesh_contains(body_b, _apply(inv, body_a.probes)).any():
-        return True, "containment"
-    return False, "fcl"
+    request = _yes_no()
+    anchor, mover = body_a.fcl_anchor, body_b.fcl_mover
+    touching = np.zeros(len(rel), bool)
+    for e, pose in enumerate(rel):
+        mover.setTransform(_transform(pose))
+        touching[e] = fcl.collide(anchor, mover, request, fcl.CollisionResult()) > 0
+    return touching
 
 
-def _units_at(chain_body, rel, units):
-    """The chain's FCL unit objects ``units``, moved by ``rel``."""
-    import fcl
-
-    objects, local = chain_body.fcl_units
-    poses = rel @ local[units]
-    for unit, pose in zip(units, poses):
-        objects[unit].setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
-        yield unit, objects[unit]
+def _near_units(mesh_body, chain_body, rel):
+    """``(entry, unit)`` index pairs whose unit's bounding ball reaches the mesh's
+    box, entry by entry, with each unit's FCL pose in the mesh's frame."""
+    centre, radius = chain_body.chain.unit_spheres
+    lo, hi = mesh_body.mesh.bounds
+    moved = _apply(rel, centre)                                            # (E, U, 3)
+    out = moved - np.minimum(np.maximum(moved, lo), hi)
+    entry, unit = np.nonzero(np.einsum("eui,eui->eu", out, out) <= radius * radius)
+    return entry, unit, rel[entry] @ chain_body.fcl_units[1][unit]
 
 
 def _mesh_chain(mesh_body, chain_body, rel):
     import fcl
 
-    centre, radius = chain_body.chain.unit_spheres
-    lo, hi = mesh_body.mesh.bounds
-    moved = _apply(rel, centre)
-    near = np.flatnonzero(np.linalg.norm(moved - np.clip(moved, lo, hi), axis=1) <= radius)
-    request = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
-    for _, unit in _units_at(chain_body, rel, near):
-        if fcl.collide(mesh_body.fcl_anchor, unit, request, fcl.CollisionResult()):
-            return True, "fcl"
-    if mesh_contains(mesh_body, _apply(rel, chain_body.chain.centers[:1])).any():
-        return True, "containment"
-    return False, "fcl"
+    request = _yes_no()
+    objects = chain_body.fcl_units[0]
+    touching = np.zeros(len(rel), bool)
+    for e, unit, pose in zip(*_near_units(mesh_body, chain_body, rel)):
+        if touching[e]:
+            continue
+        objects[unit].setTransform(_transform(pose))
+        touching[e] = fcl.collide(mesh_body.fcl_anchor, objects[unit], request,
+                                  fcl.CollisionResult()) > 0
+    return touching
 
 
 # -- clearance ----------------------------------------------------------------------
@@ -228,25 +271,32 @@ def distance(body_a, pose_a, body_b, pose_b):
     Distance 0 (and no points) when the bodies touch or one contains the other.
     """
     if body_a.kind == "chain" and body_b.kind == "chain":
-        gap, pa, pb = body_a.chain.moved(pose_a).gap(body_b.chain.moved(pose_b))
+        gap, pa, pb = body_a.chain.gap(body_b.chain, relative(pose_a, pose_b))
         if gap <= 0:
             return 0.0, None, None, "analytic"
-        return gap, pa, pb, "analytic"
+        return gap, _apply(pose_a, pa[None])[0], _apply(pose_a, pb[None])[0], "analytic"
     swap = body_a.kind == "chain"
     if swap:
         body_a, pose_a, body_b, pose_b = body_b, pose_b, body_a, pose_a
-    rel = _relative(pose_a, pose_b)
+    rel = relative(pose_a, pose_b)
     if body_b.kind == "mesh":
-        dist, pa, pb = _mesh_mesh_distance(body_a, body_b, rel)
+        body_b.fcl_mover.setTransform(_transform(rel))
+        dist, pa, pb = _fcl_distance(body_a.fcl_anchor, body_b.fcl_mover)
     else:
         dist, pa, pb = _mesh_chain_distance(body_a, body_b, rel)
     decided = "fcl"
-    if dist > 0 and collide(body_a, np.eye(4), body_b, rel)[0]:
+    if dist > 0 and collide(body_a, _EYE[None], body_b, rel[None])[0][0]:
         dist, pa, pb, decided = 0.0, None, None, "containment"
     if dist <= 0:
         return 0.0, None, None, decided
-    pa, pb = _apply(pose_a, pa), _apply(pose_a, pb)
+    pa, pb = _apply(pose_a, np.stack([pa, pb]))
     return (dist, pb, pa, decided) if swap else (dist, pa, pb, decided)
+
+
+def _transform(pose):
+    import fcl
+
+    return fcl.Transform(pose[:3, :3], pose[:3, 3])
 
 
 def _fcl_distance(object_a, object_b):
@@ -256,11 +306,6 @@ def _fcl_distance(object_a, object_b):
     dist = fcl.distance(object_a, object_b, fcl.DistanceRequest(enable_nearest_points=True),
                         result)
     return dist, np.array(result.nearest_points[0]), np.array(result.nearest_points[1])
-
-
-def _mesh_mesh_distance(body_a, body_b, rel):
-    """FCL's BVH distance; both nearest points in a's frame."""
-    return _fcl_distance(body_a.fcl_anchor, _placed(body_b, rel))
 
 
 def _mesh_chain_distance(mesh_body, chain_body, rel):
@@ -275,11 +320,13 @@ def _mesh_chain_distance(mesh_body, chain_body, rel):
     ub = chain.unit_bounds
     lower = np.linalg.norm(np.maximum(np.maximum(lo - ub[:, 1], ub[:, 0] - hi), 0.0), axis=1)
     order = np.argsort(lower, kind="stable")
+    objects, local = chain_body.fcl_units
     best, best_unit = (np.inf, None, None), None
-    for unit, obj in _units_at(chain_body, rel, order):
+    for unit in order:
         if lower[unit] >= best[0]:
             break
-        found = _fcl_distance(mesh_body.fcl_anchor, obj)
+        objects[unit].setTransform(_transform(rel @ local[unit]))
+        found = _fcl_distance(mesh_body.fcl_anchor, objects[unit])
         if found[0] < best[0]:
             best, best_unit = found, unit
         if best[0] <= 0:

@@ -77,7 +77,7 @@ class Robot:
             if j.mimic is not None and j.mimic[0] not in names:
                 raise InputError(f"joint {j.name} mimics unknown joint {j.mimic[0]!r}")
         self.actuated = tuple(j.name for j in order if j.kind in MOVING and j.mimic is None)
-        self._kinematics = _kinematics(order, self.base)
+        self._kinematics = _kinematics(order, self.base, self.link_meshes)
         self.allowed_pairs = tuple(dict.fromkeys(
             [(a, b, "adjacent links") for a, b in self._adjacent()]
             + [(a, b, str(r)) for a, b, r in allowed if a in self.link_meshes
@@ -100,60 +100,77 @@ class Robot:
         return pairs
 
     # -- posing ------------------------------------------------------------------
-    def joint_values(self, joints):
-        """Validate ``joints`` (a sequence over :attr:`actuated`, or a mapping by
-        name; missing names stay 0) into a name -> value dict, mimics included."""
-        values = dict.fromkeys(self.actuated, 0.0)
-        if joints is None:
-            pass
-        elif hasattr(joints, "items"):
-            unknown = set(joints) - set(values)
-            if unknown:
-                raise InputError(f"joints: unknown joint {sorted(unknown)[0]!r}; robot "
-                                 f"{self.name} has {', '.join(self.actuated)}")
-            given = _numbers(list(joints.values()))
-            if len(given) != len(joints):
-                raise InputError(f"joints: expected one number per joint, got {joints!r}")
-            values.update(zip(joints, given))
-        else:
-            seq = _numbers(joints)
-            if len(seq) != len(self.actuated):
-                raise InputError(f"joints: robot {self.name} has {len(self.actuated)} joints "
-                                 f"({', '.join(self.actuated)}), got {len(seq)} values")
-            values.update(zip(self.actuated, seq))
-        by_name = {j.name: j for j in self.joints}
-        for name, value in values.items():
-            j = by_name[name]
-            if not np.isfinite(value) or not j.lower - 1e-9 <= value <= j.upper + 1e-9:
-                raise InputError(f"joints: {name}={value!r} is outside its limits "
-                                 f"[{j.lower:g}, {j.upper:g}]")
-        for j in self.joints:
-            if j.mimic is not None:
-                source, multiplier, offset = j.mimic
-                values[j.name] = multiplier * values[source] + offset
+    def joint_array(self, configurations):
+        """Validate ``(C, A)`` joint values over :attr:`actuated` into ``(C, J)`` values
+        of every joint in :attr:`joints` order (fixed joints 0, mimics derived).
+
+        One configuration may also be an ``(A,)`` sequence, a mapping by name
+        (missing names stay 0), or None for all zeros.
+        """
+        if configurations is None or hasattr(configurations, "items"):
+            configurations = [self._from_mapping(configurations or {})]
+        try:
+            q = np.asarray(configurations, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError(f"joints: expected numbers (radians or metres), got "
+                             f"{configurations!r}") from None
+        q = q[None] if q.ndim == 1 else q
+        if q.ndim != 2 or q.shape[1] != len(self.actuated):
+            raise InputError(f"joints: robot {self.name} has {len(self.actuated)} joints "
+                             f"({', '.join(self.actuated)}), got "
+                             f"{q.shape[-1] if q.ndim else 1} values")
+        k = self._kinematics
+        within = (q >= k["lower"] - 1e-9) & (q <= k["upper"] + 1e-9)    # NaN is not
+        if not within.all():
+            c, a = np.argwhere(~within)[0]
+            raise InputError(f"joints: {self.actuated[a]}={float(q[c, a])!r} is outside its limits "
+                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]")
+        values = np.zeros((len(q), len(self.joints)))
+        values[:, k["actuated"]] = q
+        for j, source, multiplier, offset in k["mimics"]:
+            values[:, j] = multiplier * values[:, source] + offset
         return values
 
-    def link_poses(self, joints=None, base=None):
-        """World pose (4x4) of every link that has geometry, at joint values ``joints``.
+    def _from_mapping(self, joints):
+        unknown = set(joints) - set(self.actuated)
+        if unknown:
+            raise InputError(f"joints: unknown joint {sorted(unknown)[0]!r}; robot "
+                             f"{self.name} has {', '.join(self.actuated)}")
+        return [joints.get(name, 0.0) for name in self.actuated]
 
-        Every joint's motion is built at once (Rodrigues' formula for the revolute
-        ones); then one matrix product per joint walks down the tree.
+    def link_pose_array(self, configurations, base=None):
+        """World poses ``(C, L, 4, 4)`` of the links with geometry (in
+        :attr:`link_meshes` order) at each of ``(C, A)`` joint configurations.
+
+        Every joint's local transform is built at once (Rodrigues' formula,
+        ``origin @ (I + sin K + (1 - cos) K^2)``, with the products by the origin
+        precomputed); then one stacked matrix product per joint walks down the
+        tree, for all configurations together.
         """
-        values = self.joint_values(joints)
+        q = self.joint_array(configurations)
         k = self._kinematics
-        q = np.array([values.get(j.name, 0.0) for j in self.joints])
-        q_rot = np.where(k["revolute"], q, 0.0)
-        motion = np.tile(np.eye(4), (len(q), 1, 1))
-        motion[:, :3, :3] += (np.sin(q_rot)[:, None, None] * k["cross"]
-                              + (1.0 - np.cos(q_rot))[:, None, None] * k["cross2"])
-        motion[:, :3, 3] = np.where(k["prismatic"], q, 0.0)[:, None] * k["axis"]
-        local = k["origin"] @ motion
-        poses = [None] * len(k["links"])
-        poses[0] = np.eye(4) if base is None else np.asarray(base, np.float64)
+        angle, shift = (q * k["revolute"])[..., None, None], (q * k["prismatic"])[..., None, None]
+        local = (k["origin"] + np.sin(angle) * k["turn"] + (1.0 - np.cos(angle)) * k["turn2"]
+                 + shift * k["slide"])
+        poses = np.empty((len(q), len(k["links"]), 4, 4))
+        poses[:, 0] = np.eye(4) if base is None else base
         for step, (parent, child) in enumerate(k["edges"]):
-            poses[child] = poses[parent] @ local[step]
-        index = k["index"]
-        return {link: poses[index[link]] for link in self.link_meshes}
+            np.matmul(poses[:, parent], local[:, step], out=poses[:, child])
+        return poses[:, k["geometry"]]
+
+    def link_poses_at(self, joints=None, base=None):
+        """``(L, 4, 4)`` world poses of the links with geometry at one configuration
+        (a sequence over :attr:`actuated`, a mapping by name, or None): the batch
+        of one of :meth:`link_pose_array`."""
+        poses = self.link_pose_array(joints, base)
+        if len(poses) != 1:
+            raise InputError(f"joints: one configuration of robot {self.name} expected, got "
+                             f"{len(poses)}; use link_pose_array() for many")
+        return poses[0]
+
+    def link_poses(self, joints=None, base=None):
+        """World pose (4x4) of every link that has geometry, by link name."""
+        return dict(zip(self.link_meshes, self.link_poses_at(joints, base)))
 
     # -- loading -----------------------------------------------------------------
     @classmethod
@@ -181,30 +198,33 @@ class Robot:
         return cls(urdf.robot.name, joints, meshes, allowed)
 
 
-def _numbers(values):
-    """Joint values as a flat list of floats, or :class:`InputError` saying what came."""
-    try:
-        return np.asarray(values, dtype=np.float64).ravel().tolist()
-    except (TypeError, ValueError):
-        raise InputError(f"joints: expected numbers (radians or metres), got {values!r}") \
-            from None
-
-
-def _kinematics(joints, base):
-    """Per-joint arrays for :meth:`Robot.link_poses`: origins, axes, the cross-product
-    matrix of each axis and its square, and (parent, child) link indices."""
+def _kinematics(joints, base, geometry):
+    """Per-joint arrays for :meth:`Robot.link_pose_array`: the origin, its products
+    with the axis' cross-product matrix ``K`` and ``K^2`` (turning) and with the
+    axis (sliding), (parent, child) link indices, the actuated joints' positions
+    and limits, the mimics, and the link index of each link with geometry."""
     links = [base] + [j.child for j in joints]
     index = {link: i for i, link in enumerate(links)}
+    position = {j.name: k for k, j in enumerate(joints)}
+    actuated = [k for k, j in enumerate(joints) if j.kind in MOVING and j.mimic is None]
     axis = np.array([j.axis for j in joints]).reshape(-1, 3)
-    cross = np.zeros((len(joints), 3, 3))
+    origin = np.array([j.origin for j in joints]).reshape(-1, 4, 4)
+    cross = np.zeros((len(joints), 4, 4))          # the axis' cross-product matrix
     cross[:, 0, 1], cross[:, 0, 2], cross[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
     cross -= np.swapaxes(cross, 1, 2)
-    return {"links": links, "index": index, "axis": axis, "cross": cross,
-            "cross2": cross @ cross,
-            "origin": np.array([j.origin for j in joints]).reshape(-1, 4, 4),
-            "revolute": np.array([j.kind in ("revolute", "continuous") for j in joints], bool),
-            "prismatic": np.array([j.kind == "prismatic" for j in joints], bool),
-            "edges": [(index[j.parent], index[j.child]) for j in joints]}
+    slide = np.zeros((len(joints), 4, 4))
+    slide[:, :3, 3] = axis
+    return {"links": links, "origin": origin, "turn": origin @ cross,
+            "turn2": origin @ cross @ cross, "slide": origin @ slide,
+            "revolute": np.array([j.kind in ("revolute", "continuous") for j in joints], float),
+            "prismatic": np.array([j.kind == "prismatic" for j in joints], float),
+            "edges": [(index[j.parent], index[j.child]) for j in joints],
+            "actuated": np.array(actuated, np.int64),
+            "lower": np.array([joints[k].lower for k in actuated]),
+            "upper": np.array([joints[k].upper for k in actuated]),
+            "mimics": [(k, position[j.mimic[0]], j.mimic[1], j.mimic[2])
+                       for k, j in enumerate(joints) if j.mimic is not None],
+            "geometry": [index[link] for link in geometry]}
 
 
 def _joint(j):

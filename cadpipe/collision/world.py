@@ -7,8 +7,17 @@ Every pair not allowed then goes down the same funnel, each stage able to prove
 "apart", cheapest first: sweep-and-prune on AABBs, 18-DOPs, OBBs, optionally
 the source's separation certificate, and finally the exact narrow phase. The report records
 which stage decided each pair.
+
+A robot checked along a path goes through the same funnel for all its
+configurations at once: :meth:`CollisionWorld.check_path` (and
+:meth:`~CollisionWorld.check_many` for any objects) poses every configuration
+in one vectorized pass, runs each bounding-volume stage over all
+(configuration, pair) entries together and hands the narrow phase whole
+batches per pair. :meth:`~CollisionWorld.check` is the batch of one.
 """
 
+import operator
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -23,18 +32,44 @@ from .bodies import as_body
 STAGES = ("allowed", "aabb", "kdop", "obb", "certificate", "fcl", "containment", "analytic",
           "not checked")
 _CODE = {name: i for i, name in enumerate(STAGES)}
-_NARROW = -1                     # a pair the broad phase could not decide
+#: configurations per pass of the broad phase (bounds the entry arrays' memory)
+CONFIGURATION_CHUNK = 2048
+
+
+def _expand(values, where, fill):
+    """``values`` placed at the True positions of ``where``, ``fill`` elsewhere."""
+    out = np.full(len(where), fill, values.dtype)
+    out[where] = values
+    return out
+
+
+def _record(target, config, k, value):
+    """Write ``value`` for entries ``(config, k)`` of a (C, P) array; configuration -1
+    (a pair of standing objects) stands for every row."""
+    if len(target) == 1:                # one configuration: every entry is in row 0
+        target[0, k] = value
+        return
+    every = config < 0
+    target[:, k[every]] = value
+    target[config[~every], k[~every]] = value
 
 
 def as_pose(transform, name):
-    """A rigid 4x4 float matrix, or :class:`InputError` naming the object."""
+    """A rigid 4x4 float matrix (the identity for None), or :class:`InputError`
+    naming the object."""
     if transform is None:
         return np.eye(4)
+    return as_poses(transform, name, shape=(4, 4))
+
+
+def as_poses(transforms, name, shape=None):
+    """Rigid 4x4 float matrices ``(..., 4, 4)`` (exactly ``shape`` when given), or
+    :class:`InputError` naming the object."""
     try:
-        m = np.array(transform, dtype=np.float64)
+        m = np.array(transforms, dtype=np.float64)
     except (TypeError, ValueError):
         raise InputError(f"{name}: transform must be a 4x4 matrix of numbers") from None
-    if m.shape != (4, 4):
+    if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
         raise InputError(f"{name}: transform must be a 4x4 matrix, got shape {m.shape}")
     if not np.isfinite(m).all():
         raise InputError(f"{name}: transform has NaN or infinite entries; pass a finite matrix")
@@ -99,7 +134,7 @@ class CollisionReport:
 
     @cached_property
     def collisions(self):
-        hits = self._order(np.flatnonzero(self._colliding))
+        hits = self._order(self._colliding.nonzero()[0])
         return [(r.a, r.b, r) for r in map(self._result, hits)]
 
     def _order(self, ks):
@@ -129,6 +164,52 @@ class CollisionReport:
                 "pairs": [p.to_dict() for p in self.pairs]}
 
 
+class CollisionReports(Sequence):
+    """The outcome of :meth:`CollisionWorld.check_path` and
+    :meth:`CollisionWorld.check_many`: one :class:`CollisionReport` per
+    configuration (built when asked for), and the answers as arrays.
+
+    ``colliding[c]`` says whether configuration ``c`` has any collision;
+    ``pair_colliding`` and ``decided_by`` hold every pair's answer and stage
+    code (an index into :data:`STAGES`) per configuration, pairs in
+    ``np.triu_indices`` order of the objects; ``stopped_after_self[c]`` is
+    :attr:`CollisionReport.stopped_after_self` of configuration ``c``.
+    """
+
+    def __init__(self, names, first, second, same, codes, colliding, allowed_reasons,
+                 certificates, stopped_after_self):
+        self._names, self._first, self._second, self._same = names, first, second, same
+        self.decided_by, self.pair_colliding = codes, colliding
+        self._allowed_reasons = allowed_reasons
+        self._certificates = certificates          # (configuration or -1 for all, pair)
+        self.stopped_after_self = stopped_after_self
+
+    def __len__(self):
+        return len(self.decided_by)
+
+    def __getitem__(self, c):
+        if isinstance(c, slice):
+            return [self[k] for k in range(*c.indices(len(self)))]
+        c = operator.index(c)
+        if not -len(self) <= c < len(self):
+            raise IndexError(f"configuration {c} out of range for {len(self)}")
+        c %= len(self)
+        certificates = {k: cert for (at, k), cert in self._certificates.items() if at in (-1, c)}
+        return CollisionReport(self._names, self._first, self._second, self._same,
+                               self.decided_by[c], self.pair_colliding[c], self._allowed_reasons,
+                               certificates, bool(self.stopped_after_self[c]))
+
+    @cached_property
+    def colliding(self):
+        """(C,) bool: whether each configuration has any collision."""
+        return self.pair_colliding.any(axis=1)
+
+    def counts(self):
+        """How many (configuration, pair) entries each stage decided."""
+        found = np.bincount(self.decided_by.ravel(), minlength=len(STAGES))
+        return {name: int(n) for name, n in zip(STAGES, found) if n}
+
+
 class CollisionWorld:
     """Named meshes, pipes and primitives, placed by rigid transforms.
 
@@ -145,12 +226,14 @@ class CollisionWorld:
         self._names, self._index, self._bodies, self._groups = [], {}, [], []
         self._poses = np.zeros((0, 4, 4))
         self._versions = np.zeros(0, np.int64)
-        self._stale = np.zeros(0, bool)
+        self._stale = np.zeros(0, bool)     # moved since their bounds were placed
         self._allowed = {}                 # (i, j) with i < j -> reason
-        self._robots = {}                  # group -> (robot, base pose)
+        self._robots = {}                  # group -> (robot, base pose, object ids of links)
         self._cache = {}                   # (i, j, certify) -> (versions, code, colliding, cert)
-        self._packed = None                # hull points of all objects, rebuilt on add()
+        self._supports = None              # bounds.Supports of all objects, rebuilt on add()
+        self._placed = None                # world 18-DOP, OBB centre and axes per object
         self._pair_table = None            # pairs, self-pair and allowed masks
+        self._reasons = {}                 # allowed pair index -> reason
 
     # -- contents -------------------------------------------------------------
     def add(self, name, obj, transform=None, group=None):
@@ -173,7 +256,7 @@ class CollisionWorld:
         self._poses = np.concatenate([self._poses, pose[None]])
         self._versions = np.append(self._versions, 0)
         self._stale = np.append(self._stale, True)
-        self._packed = self._pair_table = None
+        self._supports = self._placed = self._pair_table = None
         return self
 
     def _find(self, name):
@@ -196,9 +279,12 @@ class CollisionWorld:
     def set_pose(self, name, transform):
         """Move object ``name`` to a new rigid 4x4 ``transform``."""
         i = self._find(name)
-        self._poses[i] = as_pose(transform, name)
-        self._versions[i] += 1
-        self._stale[i] = True
+        self._moved([i], as_pose(transform, name)[None])
+
+    def _moved(self, ids, poses):
+        self._poses[ids] = poses
+        self._versions[ids] += 1
+        self._stale[ids] = True
 
     def allow(self, a, b, reason="allowed by user"):
         """Never report the pair ``a``, ``b`` (e.g. links joined by a joint)."""
@@ -218,7 +304,8 @@ class CollisionWorld:
         ``joints``; the robot's allowed pairs (adjacent links, SRDF) come along.
 
         Links are named by their link names, in group ``group`` (default: the
-        robot's name), so :meth:`set_joints` can move them later.
+        robot's name), so :meth:`set_joints` and :meth:`check_path` can move
+        them later.
         """
         group = robot.name if group is None else str(group)
         if group in self._robots:
@@ -229,80 +316,43 @@ class CollisionWorld:
             self.add(link, robot.link_meshes[link], transform=pose, group=group)
         for a, b, reason in robot.allowed_pairs:
             self.allow(a, b, reason)
-        self._robots[group] = (robot, base)
+        self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
         return self
 
-    def set_joints(self, group, joints):
-        """Re-pose the links of the robot added as ``group``."""
+    def _robot(self, group):
         if group not in self._robots:
             raise InputError(f"no robot in group {group!r}; robots: {', '.join(self._robots)}")
-        robot, base = self._robots[group]
-        poses = robot.link_poses(joints, base)
-        index = [self._index[link] for link in poses]
-        self._poses[index] = np.array(list(poses.values()))
-        self._versions[index] += 1
-        self._stale[index] = True
+        return self._robots[group]
+
+    def set_joints(self, group, joints):
+        """Re-pose the links of the robot added as ``group`` (one configuration: a
+        sequence over ``robot.actuated`` or a mapping by joint name)."""
+        robot, base, ids = self._robot(group)
+        self._moved(ids, robot.link_poses_at(joints, base))
 
     # -- bounding volumes -------------------------------------------------------
-    def _pack(self):
-        """Hull points grouped by size (powers of two, padded by repeating a point),
-        so the bounds of many moved objects refresh in a few batched products."""
-        if self._packed is None:
+    def _placed_bounds(self):
+        """World 18-DOP (its first three slabs are the AABB), OBB centre and OBB axes of
+        every object where it stands; objects moved since the last call are placed
+        again."""
+        if self._supports is None:
+            self._supports = bounds.Supports([b.support for b in self._bodies],
+                                             [b.obb for b in self._bodies])
             n = len(self._bodies)
-            buckets = {}
-            for i, body in enumerate(self._bodies):
-                size = 1 << max(3, int(np.ceil(np.log2(len(body.hull[0])))))
-                buckets.setdefault(size, []).append(i)
-            groups = []
-            for size, members in sorted(buckets.items()):
-                points = np.empty((len(members), 3, size))      # coordinates, then points:
-                pad = np.empty((len(members), 1, size))         # reductions run along rows
-                for row, i in enumerate(members):
-                    p, r = self._bodies[i].hull
-                    fill = np.r_[np.arange(len(p)), np.zeros(size - len(p), np.int64)]
-                    points[row], pad[row, 0] = p[fill].T, r[fill]
-                groups.append((np.array(members), points, pad if pad.any() else None))
-            obbs = [body.obb for body in self._bodies]
-            self._packed = {
-                "groups": groups,
-                "centre": np.array([o[0] for o in obbs]), "axes": np.array([o[1] for o in obbs]),
-                "half": np.array([o[2] for o in obbs]),
-                "kdop": np.zeros((n, 2, 9)), "world_centre": np.zeros((n, 3)),
-                "world_axes": np.zeros((n, 3, 3))}
+            self._placed = (np.zeros((n, 2, 9)), np.zeros((n, 3)), np.zeros((n, 3, 3)))
             self._stale[:] = True
-        return self._packed
-
-    def _refresh_bounds(self):
-        """World 18-DOP (its first three slabs are the AABB) and OBB of every object
-        moved since the last call."""
-        b = self._pack()
-        if not self._stale.any():
-            return b
-        rot, shift = self._poses[:, :3, :3], self._poses[:, :3, 3]
-        for members, points, pad in b["groups"]:
-            moved = self._stale[members]
-            if not moved.any():
-                continue
-            ids = members[moved]
-            # project the local points on the world directions turned into each frame
-            proj = (bounds.KDOP_DIRECTIONS @ rot[ids]) @ points[moved]       # (k, 9, size)
-            offset = shift[ids] @ bounds.KDOP_DIRECTIONS.T
-            if pad is None:
-                low, high = proj.min(axis=2), proj.max(axis=2)
-            else:
-                low, high = (proj - pad[moved]).min(axis=2), (proj + pad[moved]).max(axis=2)
-            b["kdop"][ids, 0], b["kdop"][ids, 1] = low + offset, high + offset
-        stale = np.flatnonzero(self._stale)
-        b["world_centre"][stale] = (rot[stale] @ b["centre"][stale, :, None])[:, :, 0] \
-            + shift[stale]
-        b["world_axes"][stale] = rot[stale] @ b["axes"][stale]
-        self._stale[:] = False
-        return b
+        if self._stale.any():
+            ids = self._stale.nonzero()[0]
+            for target, value in zip(self._placed, self._supports.place(
+                    ids, self._poses[ids, :3, :3], self._poses[ids, :3, 3])):
+                target[ids] = value
+            self._stale[:] = False
+        return self._placed
 
     def bounds(self, name):
         """The world AABB of ``name`` as a (2, 3) array."""
         i = self._find(name)
-        return self._refresh_bounds()["kdop"][i, :, :3].copy()
+        return self._placed_bounds()[0][i, :, :3].copy()
 
     # -- checks ---------------------------------------------------------------
     def _pairs(self):
@@ -318,6 +368,8 @@ class CollisionWorld:
             for i, j in self._allowed:
                 allowed[(i * (2 * n - i - 1)) // 2 + j - i - 1] = True
             self._pair_table = first, second, same, allowed
+            self._reasons = {k: self._allowed[(first[k], second[k])]
+                             for k in np.flatnonzero(allowed)}
         return self._pair_table
 
     def check(self, stop_after_self=False, certify=False):
@@ -334,67 +386,192 @@ class CollisionWorld:
             pairs whose boxes overlap; a pair it separates is decided by
             ``"certificate"`` and carries the certificate.
         """
-        n = len(self._names)
-        first, second, same, allowed = self._pairs()
-        codes = np.full(len(first), _CODE["aabb"], np.int8)
-        codes[allowed] = _CODE["allowed"]
-        colliding = np.zeros(len(first), bool)
-        certificates = {}
-        if n >= 2:
-            b = self._refresh_bounds()
-            k = np.flatnonzero(bounds.overlapping_pairs(b["kdop"][:, 0, :3], b["kdop"][:, 1, :3],
-                                                        first, second) & ~allowed)
-            i, j = first[k], second[k]
-            dop = bounds.boxes_overlap(b["kdop"][i, 0], b["kdop"][i, 1], b["kdop"][j, 0],
-                                       b["kdop"][j, 1])
-            codes[k[~dop]] = _CODE["kdop"]
-            k, i, j = k[dop], i[dop], j[dop]
-            if k.size:
-                obb = bounds.obb_overlap(b["world_centre"][i], b["world_axes"][i], b["half"][i],
-                                         b["world_centre"][j], b["world_axes"][j], b["half"][j])
-                codes[k[~obb]] = _CODE["obb"]
-                k = k[obb]
-            order = k[np.lexsort((second[k], first[k], ~same[k]))]
-            stopped = False
-            for pair in order:
-                if stop_after_self and not same[pair] and colliding[same].any():
-                    stopped = True
-                    break
-                codes[pair], colliding[pair], cert = self._decide(first[pair], second[pair],
-                                                                  certify)
-                if cert is not None:
-                    certificates[pair] = cert
-            if stopped:
-                rest = ~same & (codes != _CODE["allowed"])
-                codes[rest] = _CODE["not checked"]
-                colliding[rest] = False
-        else:
-            stopped = False
-        reasons = {k: self._allowed[(first[k], second[k])] for k in np.flatnonzero(allowed)}
-        return CollisionReport(tuple(self._names), first, second, same, codes, colliding, reasons,
-                               certificates, stopped)
+        return self._evaluate(np.zeros(0, np.int64), np.zeros((1, 0, 4, 4)), stop_after_self,
+                              certify)[0]
 
-    def _decide(self, i, j, certify):
-        """``(code, colliding, certificate)`` of one pair past the broad phase."""
-        key = (i, j, certify)
-        versions = (self._versions[i], self._versions[j])
+    def check_path(self, group, configurations, stop_after_self=False, certify=False):
+        """:meth:`check` at each of many joint configurations of the robot ``group``,
+        in one vectorized pass; returns :class:`CollisionReports`.
+
+        ``configurations`` is a ``(C, A)`` array over ``robot.actuated`` (a
+        trajectory's waypoints, say). Each configuration is checked where it
+        stands -- the motion between them is not swept -- and its report is
+        the one :meth:`set_joints` then :meth:`check` would give. The robot
+        stays where :meth:`set_joints` last put it.
+        """
+        robot, base, ids = self._robot(group)
+        poses = robot.link_pose_array(configurations, base)
+        return self._evaluate(ids, poses, stop_after_self, certify)
+
+    def check_many(self, poses, stop_after_self=False, certify=False):
+        """:meth:`check` with objects placed at each of C poses, in one vectorized pass.
+
+        ``poses`` maps object names to ``(C, 4, 4)`` rigid transforms (the same C
+        for all); objects not named stay where they are. Returns
+        :class:`CollisionReports`, one report per configuration, each the one
+        :meth:`set_pose` then :meth:`check` would give.
+        """
+        if not hasattr(poses, "items") or not poses:
+            raise InputError("check_many(poses): pass a mapping of object names to (C, 4, 4) "
+                             "pose arrays")
+        ids = np.array([self._find(name) for name in poses])
+        stacked = [as_poses(p, name) for name, p in poses.items()]
+        if any(p.ndim != 3 for p in stacked) or len({len(p) for p in stacked}) != 1:
+            raise InputError("check_many(poses): every object needs a (C, 4, 4) array with the "
+                             "same C, got shapes " + ", ".join(str(p.shape) for p in stacked))
+        return self._evaluate(ids, np.stack(stacked, axis=1), stop_after_self, certify)
+
+    def _evaluate(self, ids, poses, stop_after_self, certify):
+        """Every pair in each of C configurations: objects ``ids`` at ``poses``
+        (C, m, 4, 4), all others where they stand. Configurations go through in
+        chunks that keep the entry arrays small."""
+        first, second, same, allowed = self._pairs()
+        count = len(poses)
+        codes = np.full((count, len(first)), _CODE["aabb"], np.int8)
+        codes[:, allowed] = _CODE["allowed"]
+        colliding = np.zeros(codes.shape, bool)
+        stopped = np.zeros(count, bool)
+        certificates = {}
+        if len(self._names) >= 2:
+            for start in range(0, count, CONFIGURATION_CHUNK):
+                part = slice(start, start + CONFIGURATION_CHUNK)
+                entries = self._broad_phase(ids, poses[part], codes[part])
+                found = self._narrow_phase(entries, codes[part], colliding[part],
+                                           stopped[part], stop_after_self, certify)
+                certificates.update({(c if c < 0 else c + start, k): cert
+                                     for (c, k), cert in found.items()})
+        return CollisionReports(tuple(self._names), first, second, same, codes, colliding,
+                                self._reasons, certificates, stopped)
+
+    def _broad_phase(self, ids, poses, codes):
+        """Run the bounding-volume stages over every (configuration, pair) entry,
+        recording the pairs they decide in ``codes``; returns the entries left as
+        ``(configuration, pair, pose_a, pose_b)`` arrays.
+
+        Objects are placed in slots: slot ``i < n`` is object ``i`` where it
+        stands, slot ``n + c m + r`` is object ``ids[r]`` in configuration ``c``.
+        A pair of standing objects is one entry (configuration -1: all of them);
+        a pair with a moving object gets one entry per configuration.
+        """
+        n, (count, m) = len(self._names), poses.shape[:2]
+        first, second, same, allowed = self._pairs()
+        kdop, centre, axes = self._placed_bounds()
+        standing = ~allowed
+        if m:
+            moving = np.zeros(n, bool)
+            moving[ids] = True
+            standing = standing & ~moving[first] & ~moving[second]
+        near = bounds.overlapping_pairs(kdop[:, 0, :3], kdop[:, 1, :3], first, second)
+        k = (standing & near).nonzero()[0]
+        config, slot_a, slot_b = np.full(len(k), -1), first[k], second[k]
+        objects, slot_poses = np.arange(n), self._poses
+        if m:
+            placed_ids = np.tile(ids, count)
+            placed = self._supports.place(placed_ids, poses[..., :3, :3].reshape(-1, 3, 3),
+                                          poses[..., :3, 3].reshape(-1, 3))
+            kdop, centre, axes = (np.concatenate([a, b]) for a, b in zip(self._placed, placed))
+            objects, slot_poses = np.r_[objects, placed_ids], np.concatenate(
+                [self._poses, poses.reshape(-1, 4, 4)])
+            rank = np.zeros(n, np.int64)
+            rank[ids] = np.arange(m)
+            pairs = np.flatnonzero(~allowed & (moving[first] | moving[second]))
+            c, kk = np.repeat(np.arange(count), len(pairs)), np.tile(pairs, count)
+            a, b = first[kk], second[kk]
+            a = np.where(moving[a], n + c * m + rank[a], a)
+            b = np.where(moving[b], n + c * m + rank[b], b)
+            box_a, box_b = kdop[a, :, :3], kdop[b, :, :3]
+            near = bounds.boxes_overlap(box_a[:, 0], box_a[:, 1], box_b[:, 0], box_b[:, 1])
+            config, k = np.r_[config, c[near]], np.r_[k, kk[near]]
+            slot_a, slot_b = np.r_[slot_a, a[near]], np.r_[slot_b, b[near]]
+        dop_a, dop_b = kdop[slot_a], kdop[slot_b]
+        keep = bounds.boxes_overlap(dop_a[:, 0], dop_a[:, 1], dop_b[:, 0], dop_b[:, 1])
+        _record(codes, config[~keep], k[~keep], _CODE["kdop"])
+        config, k, slot_a, slot_b = config[keep], k[keep], slot_a[keep], slot_b[keep]
+        half = self._supports.half
+        keep = bounds.obb_overlap(centre[slot_a], axes[slot_a], half[objects[slot_a]],
+                                  centre[slot_b], axes[slot_b], half[objects[slot_b]])
+        _record(codes, config[~keep], k[~keep], _CODE["obb"])
+        return config[keep], k[keep], slot_poses[slot_a[keep]], slot_poses[slot_b[keep]]
+
+    def _narrow_phase(self, entries, codes, colliding, stopped, stop_after_self, certify):
+        """Decide the entries the bounding volumes left, self pairs first; returns
+        the certificates found, by (configuration, pair)."""
+        config, k, poses_a, poses_b = entries
+        first, second, same, allowed = self._pairs()
+        certificates = {}
+        own = same[k]
+        self._decide(config, k, poses_a, poses_b, own.nonzero()[0], codes, colliding,
+                     certificates, certify)
+        world = (~own).nonzero()[0]
+        if stop_after_self:
+            stopped[:] = colliding[:, same].any(axis=1)
+            at = config[world]
+            world = world[np.where(at < 0, not stopped.all(), ~stopped[at])]
+        self._decide(config, k, poses_a, poses_b, world, codes, colliding, certificates,
+                     certify)
+        if stopped.any():
+            rest = ~same & ~allowed
+            codes[np.ix_(stopped, rest)] = _CODE["not checked"]
+            colliding[np.ix_(stopped, rest)] = False
+        return certificates
+
+    def _decide(self, config, k, poses_a, poses_b, chosen, codes, colliding, certificates,
+                certify):
+        """The exact answer for entries ``chosen``: a pair of standing objects on its
+        own (its answer kept while neither moves), the others one batch per pair."""
+        first, second, _, _ = self._pairs()
+        moving = config[chosen] >= 0
+        for e in chosen[~moving]:
+            pair = k[e]
+            codes[:, pair], colliding[:, pair], cert = self._standing(
+                first[pair], second[pair], poses_a[e], poses_b[e], certify)
+            if cert is not None:
+                certificates[(-1, pair)] = cert
+        batch = chosen[moving]
+        if not batch.size:
+            return
+        batch = batch[np.argsort(k[batch], kind="stable")]
+        pairs, starts = np.unique(k[batch], return_index=True)
+        for pair, at in zip(pairs, np.split(batch, starts[1:])):
+            code, touching, certs = self._settle(first[pair], second[pair], poses_a[at],
+                                                 poses_b[at], certify)
+            codes[config[at], pair], colliding[config[at], pair] = code, touching
+            certificates.update({(config[at[e]], pair): cert for e, cert in certs.items()})
+
+    def _standing(self, i, j, pose_a, pose_b, certify):
+        """``(code, colliding, certificate)`` of a pair of standing objects, reused
+        while neither has moved."""
+        key, versions = (i, j, certify), (self._versions[i], self._versions[j])
         cached = self._cache.get(key)
-        if cached is not None and cached[0] == versions:
-            return cached[1:]
-        cert = None
+        if cached is None or cached[0] != versions:
+            code, touching, certs = self._settle(i, j, pose_a[None], pose_b[None], certify)
+            cached = self._cache[key] = (versions, code[0], touching[0], certs.get(0))
+        return cached[1:]
+
+    def _settle(self, i, j, poses_a, poses_b, certify):
+        """``(codes, touching, certificates by entry)`` of one pair at E placements:
+        the certificate first when asked for, then the exact narrow phase."""
+        body_a, body_b = self._bodies[i], self._bodies[j]
+        certificates = {}
         if certify:
             from .certificate import find_certificate
 
-            cert = find_certificate(self._bodies[i], self._poses[i], self._bodies[j],
-                                    self._poses[j], names=(self._names[i], self._names[j]))
-        if cert is not None:
-            code, touching = _CODE["certificate"], False
-        else:
-            touching, stage = narrow.collide(self._bodies[i], self._poses[i], self._bodies[j],
-                                             self._poses[j])
-            code = _CODE[stage]
-        self._cache[key] = (versions, code, touching, cert)
-        return code, touching, cert
+            for e in range(len(poses_a)):
+                cert = find_certificate(body_a, poses_a[e], body_b, poses_b[e],
+                                        names=(self._names[i], self._names[j]))
+                if cert is not None:
+                    certificates[e] = cert
+        if certificates:
+            todo = np.ones(len(poses_a), bool)
+            todo[list(certificates)] = False
+            poses_a, poses_b = poses_a[todo], poses_b[todo]
+        touching, contained = narrow.collide(body_a, poses_a, body_b, poses_b)
+        exact = _CODE["analytic" if body_a.kind == body_b.kind == "chain" else "fcl"]
+        codes = np.where(contained, _CODE["containment"], exact).astype(np.int8)
+        if certificates:
+            codes, touching = _expand(codes, todo, _CODE["certificate"]), _expand(touching, todo,
+                                                                                  False)
+        return codes, touching, certificates
 
     def distance(self, a, b):
         """Clearance between ``a`` and ``b`` with the closest points (a

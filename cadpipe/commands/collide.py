@@ -18,7 +18,8 @@ def _safe(name):
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", name)
 
 
-@command("collide", "Check the parts and robot of a spec file (TOML/JSON) for collisions.", _arguments)
+@command("collide", "Check the parts and robot of a spec file (TOML/JSON) for collisions.",
+         _arguments)
 def collide(args):
     from ..collision import world_from_spec
     from ..exporters import ensure_folder

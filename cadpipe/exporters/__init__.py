@@ -120,7 +120,7 @@ def load_mesh(path):
     if not path.is_file():
         raise ExportError(f"{path}: is a folder, not a mesh file" if path.is_dir() else
                           f"{path}: no such file")
-    import trimesh                    # after the check: a wrong name is reported at once
+    import trimesh  # after the check: a wrong name is reported at once
 
     from ..mesh import Mesh
 

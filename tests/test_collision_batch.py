@@ -1,0 +1,268 @@
+"""Batched checks: check_path / check_many and the pose-batched chain gaps give, for
+every configuration, exactly what the one-at-a-time calls give."""
+
+import numpy as np
+import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from cadpipe import CollisionWorld, InputError, Mesh, Path, Pipe
+from cadpipe.collision import STAGES, Box, CollisionReports, Joint, Robot, Sphere
+from cadpipe.collision.capsules import Chain, unit_pair_gap
+from cadpipe.collision.hierarchy import CHUNK, chain_gaps
+
+
+def arm():
+    """Four capsule-like links: a turning base, then three folding joints."""
+    link = Mesh.from_trimesh(trimesh.creation.capsule(height=0.5, radius=0.07, count=[8, 8]))
+    link = link.transformed(trimesh.transformations.translation_matrix([0, 0, 0.25]))
+    up = shift(0, 0, 0.5)
+    names = ["base", "l0", "l1", "l2", "l3"]
+    joints = [Joint(f"j{k}", "revolute", names[k], names[k + 1], up if k else np.eye(4),
+                    np.array([0.0, 0.0, 1.0] if k == 0 else [0.0, 1.0, 0.0]), -2.8, 2.8)
+              for k in range(4)]
+    return Robot("arm", joints, dict.fromkeys(names[1:], link))
+
+
+def shift(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+def cell():
+    """The arm beside a big block (links end up wholly inside it: containment), a
+    torus, a ball and two pipes, one of them tapered."""
+    world = CollisionWorld()
+    world.add_robot(arm())
+    world.add("block", Box((0.9, 0.9, 0.7)), transform=shift(0.7, 0.0, 0.6))
+    world.add("ring", Mesh.from_trimesh(trimesh.creation.torus(0.3, 0.08, major_sections=24,
+                                                               minor_sections=12)),
+              transform=shift(-0.5, 0.4, 1.0))
+    world.add("ball", Sphere(0.15), transform=shift(0.0, -0.6, 0.9))
+    world.add("duct", Pipe(Path.spline([[-0.8, -0.5, 0.2], [0.0, -0.2, 1.2], [0.6, 0.6, 1.6]],
+                                       step=0.05), 0.06, caps="round"))
+    world.add("hose", Pipe([[-0.6, 0.6, 0.1], [-0.2, 0.1, 0.8], [0.3, -0.5, 1.3]],
+                           [0.04, 0.1, 0.05], caps="round"))
+    return world
+
+
+def answers(report):
+    return [(p.a, p.b, p.decided_by, p.colliding, p.phase) for p in report.pairs]
+
+
+def one_by_one(world, configurations, **options):
+    out = []
+    for q in configurations:
+        world.set_joints("arm", q)
+        out.append(world.check(**options))
+    return out
+
+
+@pytest.mark.parametrize("options", [{}, {"stop_after_self": True}])
+def test_check_path_equals_check_in_a_loop(options):
+    world = cell()
+    q = np.random.default_rng(8).uniform(-2.8, 2.8, (400, 4))
+    batch = world.check_path("arm", q, **options)
+    assert isinstance(batch, CollisionReports) and len(batch) == len(q)
+    singles = one_by_one(world, q, **options)
+    for c, single in enumerate(singles):
+        assert answers(batch[c]) == answers(single)
+        assert batch[c].stopped_after_self == single.stopped_after_self
+        assert [(a, b) for a, b, _ in batch[c].collisions] == \
+            [(a, b) for a, b, _ in single.collisions]
+    np.testing.assert_array_equal(batch.colliding, [bool(s.collisions) for s in singles])
+    stages = {p.decided_by for s in singles for p in s.pairs}
+    # the comparison covers every stage, containment and self-collision included
+    assert {"aabb", "kdop", "obb", "fcl", "containment", "analytic"} <= stages
+    assert any(d.phase == "self" for s in singles for _, _, d in s.collisions)
+    if options:
+        assert batch.stopped_after_self.any() and not batch.stopped_after_self.all()
+    assert sum(batch.counts().values()) == batch.decided_by.size
+    assert set(batch.counts()) <= set(STAGES)
+
+
+def test_check_path_with_certificates_equals_the_loop():
+    world = cell()
+    q = np.random.default_rng(9).uniform(-2.8, 2.8, (12, 4))
+    batch = world.check_path("arm", q, certify=True)
+    singles = one_by_one(world, q, certify=True)
+    for c, single in enumerate(singles):
+        assert answers(batch[c]) == answers(single)
+        for mine, theirs in zip(batch[c].pairs, single.pairs):
+            assert (mine.certificate is None) == (theirs.certificate is None)
+    assert any(p.decided_by == "certificate" for s in singles for p in s.pairs)
+
+
+def test_check_many_moves_any_objects_and_equals_the_loop():
+    world = cell()
+    rng = np.random.default_rng(10)
+    count = 300
+    poses = {}
+    for name, spread in (("hose", 0.5), ("ball", 0.8)):
+        m = np.tile(np.eye(4), (count, 1, 1))
+        m[:, :3, :3] = Rotation.random(count, random_state=rng).as_matrix()
+        m[:, :3, 3] = world.pose(name)[:3, 3] + rng.uniform(-spread, spread, (count, 3))
+        poses[name] = m
+    batch = world.check_many(poses)
+    hits = set()
+    for c in range(count):
+        for name, m in poses.items():
+            world.set_pose(name, m[c])
+        single = world.check()
+        assert answers(batch[c]) == answers(single)
+        hits |= {(a, b, d.decided_by) for a, b, d in single.collisions}
+    # chains against chains, meshes and the ball inside the block all occur
+    assert ("duct", "hose", "analytic") in hits
+    assert ("block", "ball", "containment") in hits
+
+
+def test_check_path_leaves_the_robot_where_it_was():
+    world = cell()
+    world.set_joints("arm", [0.3, 0.2, -0.4, 0.1])
+    before = world.check()
+    world.check_path("arm", np.zeros((3, 4)))
+    assert answers(world.check()) == answers(before)
+    assert len(world.check_path("arm", [0.3, 0.2, -0.4, 0.1])) == 1
+
+
+def test_batches_larger_than_a_chunk_are_stitched_together():
+    world = cell()
+    q = np.random.default_rng(12).uniform(-2.8, 2.8, (5, 4))
+    q = np.repeat(q, 900, axis=0)                 # 4,500 configurations, > 2 chunks
+    batch = world.check_path("arm", q)
+    first = [answers(batch[c]) for c in range(0, len(q), 900)]
+    for c in range(len(q)):
+        assert batch.decided_by[c].tolist() == batch.decided_by[c // 900 * 900].tolist()
+    assert first == [answers(r) for r in one_by_one(world, q[::900])]
+
+
+def test_bad_batches_are_refused():
+    world = cell()
+    with pytest.raises(InputError, match="mapping of object names"):
+        world.check_many([np.eye(4)])
+    with pytest.raises(InputError, match="unknown object 'ghost'"):
+        world.check_many({"ghost": np.eye(4)[None]})
+    with pytest.raises(InputError, match="same C"):
+        world.check_many({"ball": np.tile(np.eye(4), (2, 1, 1)), "hose": np.eye(4)[None]})
+    with pytest.raises(InputError, match="rigid"):
+        world.check_many({"ball": np.diag([2.0, 1, 1, 1])[None]})
+    with pytest.raises(InputError, match="no robot in group 'crane'"):
+        world.check_path("crane", np.zeros((2, 4)))
+    with pytest.raises(InputError, match="has 4 joints"):
+        world.check_path("arm", np.zeros((2, 3)))
+    with pytest.raises(InputError, match="outside its limits"):
+        world.check_path("arm", [[0, 0, 0, 3.5]])
+
+
+def test_link_pose_array_is_link_poses_for_each_configuration():
+    robot = arm()
+    q = np.random.default_rng(13).uniform(-2.8, 2.8, (20, 4))
+    stacked = robot.link_pose_array(q)
+    assert stacked.shape == (20, 4, 4, 4)
+    for c in range(20):
+        np.testing.assert_array_equal(stacked[c], np.array(list(robot.link_poses(q[c]).values())))
+
+
+# -- the pose-batched chain gaps ----------------------------------------------------
+def brute(a, b, pose):
+    """Every unit pair's gap, b moved by pose."""
+    moved = b.moved(pose)
+    i, j = np.meshgrid(np.arange(len(a.edges)), np.arange(len(b.edges)), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    return unit_pair_gap(a.starts[i], a.ends[i], a.start_radii[i], a.end_radii[i],
+                         moved.starts[j], moved.ends[j], moved.start_radii[j],
+                         moved.end_radii[j])[0].min()
+
+
+def walk(rng, n, step):
+    return np.cumsum(rng.normal(0, step, (n, 3)), axis=0)
+
+
+def chains(seed):
+    """Open, closed, tapered, single-ball and disconnected chains."""
+    rng = np.random.default_rng(seed)
+    broken = Chain(walk(rng, 12, 0.2), rng.uniform(0.03, 0.1, 12),
+                   np.array([[0, 1], [1, 2], [4, 5], [5, 6], [6, 7], [9, 10], [10, 11], [3, 3]]))
+    return [Chain.along(walk(rng, 40, 0.1), 0.08),
+            Chain.along(walk(rng, 17, 0.2), rng.uniform(0.02, 0.15, 17)),
+            Chain.along(walk(rng, 9, 0.3), 0.05, closed=True),
+            Chain.along(np.zeros((1, 3)), 0.2),
+            broken]
+
+
+def random_poses(rng, count, spread):
+    m = np.tile(np.eye(4), (count, 1, 1))
+    m[:, :3, :3] = Rotation.random(count, random_state=rng).as_matrix()
+    m[:, :3, 3] = rng.uniform(-spread, spread, (count, 3))
+    return m
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_chain_gaps_are_the_exact_minimum_at_every_pose(seed):
+    rng = np.random.default_rng(seed)
+    every = chains(seed)
+    for a in every:
+        for b in every:
+            poses = random_poses(rng, 25, 1.0)
+            expected = np.array([brute(a, b, m) for m in poses])
+            gap, near, far = a.gaps(b, poses)
+            np.testing.assert_allclose(gap, expected, atol=1e-12)
+            apart = gap > 0
+            np.testing.assert_allclose(np.linalg.norm(far - near, axis=1)[apart], gap[apart],
+                                       atol=1e-9)
+            touching = a.gaps(b, poses, stop_below=0.0)[0] <= 0
+            np.testing.assert_array_equal(touching, expected <= 0)
+            assert a.gap(b, poses[3])[0] == pytest.approx(expected[3], abs=1e-12)
+
+
+def test_chain_gaps_over_many_chunks():
+    rng = np.random.default_rng(3)
+    a, b = chains(3)[:2]
+    poses = random_poses(rng, 2 * CHUNK + 17, 1.2)
+    batched = chain_gaps(a, b, poses, stop_below=0.0)[0] <= 0
+    single = np.array([a.gap(b, m, stop_below=0.0)[0] <= 0 for m in poses[::37]])
+    np.testing.assert_array_equal(batched[::37], single)
+    assert 0 < batched.sum() < len(batched)
+
+
+point = st.lists(st.floats(-1, 1), min_size=3, max_size=3)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(point, min_size=2, max_size=12), st.lists(st.floats(0.01, 0.3), min_size=12,
+                                                          max_size=12), st.integers(0, 2 ** 32 - 1))
+def test_tree_radii_bound_every_node(points, radii, seed):
+    """Each node's outer capsule holds its units; its inner one lies in their union."""
+    chain = Chain.along(np.array(points), np.array(radii[:len(points)]))
+    tree = chain.tree
+    rng = np.random.default_rng(seed)
+    for node in range(len(tree.p0)):
+        if not np.isfinite(tree.outer[node]):
+            continue
+        depth = int(np.log2(node + 1))
+        j = node - 2 ** depth + 1
+        lo, hi = j * len(chain.edges) // 2 ** depth, (j + 1) * len(chain.edges) // 2 ** depth
+        a, u = tree.start[node], tree.chord[node]
+        # points on the units' surfaces lie within the outer radius of the chord
+        s = rng.uniform(0, 1, 64)
+        unit = rng.integers(lo, hi, 64)
+        centre = chain.starts[unit] + s[:, None] * (chain.ends[unit] - chain.starts[unit])
+        radius = chain.start_radii[unit] + s * (chain.end_radii[unit] - chain.start_radii[unit])
+        direction = rng.normal(size=(64, 3))
+        surface = centre + radius[:, None] * direction / np.linalg.norm(direction, axis=1,
+                                                                        keepdims=True)
+        t = np.clip((surface - a) @ u / max(u @ u, 1e-300), 0, 1)
+        assert np.all(np.linalg.norm(surface - a - t[:, None] * u, axis=1)
+                      <= tree.outer[node] + 1e-12)
+        # points within the inner radius of the chord are inside the run's units
+        if tree.inner[node] > 0:
+            t = rng.uniform(0, 1, 64)
+            offset = rng.normal(size=(64, 3))
+            offset *= tree.inner[node] * rng.uniform(0, 1, (64, 1)) / np.linalg.norm(
+                offset, axis=1, keepdims=True)
+            inside = a + t[:, None] * u + offset
+            run = Chain(chain.centers, chain.radii, chain.edges[lo:hi])
+            assert np.all(run.signed_distance(inside) <= 1e-12)
