@@ -16,6 +16,28 @@ from ._vec import cross
 from .errors import InputError, MeshError
 
 
+def winding_numbers(triangles, points, chunk=2_000_000):
+    """Generalized winding number of a closed triangle soup ``(F, 3, 3)`` at each point.
+
+    The signed solid angles of the triangles seen from the point (Van Oosterom and
+    Strackee) summed over 4 pi: 1 inside a closed outward mesh, 0 outside.
+    Vectorized over triangles and points, in chunks of about ``chunk`` pairs.
+    """
+    out = np.empty(len(points))
+    step = max(1, chunk // max(len(triangles), 1))
+    for start in range(0, len(points), step):
+        r = triangles[None, :, :, :] - points[start:start + step, None, None, :]
+        n = np.linalg.norm(r, axis=3)
+        a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
+        det = np.einsum("pfi,pfi->pf", a, cross(b, c))
+        dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
+                + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
+                + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
+                + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
+        out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
+    return out
+
+
 def _frozen(arr, dtype):
     arr = np.ascontiguousarray(arr, dtype=dtype)
     arr.flags.writeable = False
@@ -226,27 +248,9 @@ class Mesh:
         """Genus of a closed single-body mesh (0 for a sphere-like tube, 1 for a loop)."""
         return (2 * self.n_bodies - self.euler_characteristic) // 2
 
-    def winding_numbers(self, points, chunk=2_000_000):
-        """Generalized winding number of the surface around each point (1 inside, 0 outside).
-
-        Sums the solid angles of all triangles (Van Oosterom and Strackee), vectorized
-        over points and triangles in chunks of about ``chunk`` pairs.
-        """
-        pts = as_points(points, "points", min_count=0)
-        tri = self.triangles
-        out = np.empty(len(pts))
-        step = max(1, chunk // max(len(tri), 1))
-        for start in range(0, len(pts), step):
-            r = tri[None, :, :, :] - pts[start:start + step, None, None, :]
-            n = np.linalg.norm(r, axis=3)
-            a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
-            det = np.einsum("pfi,pfi->pf", a, cross(b, c))
-            dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
-                    + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
-                    + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
-                    + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
-            out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
-        return out
+    def winding_numbers(self, points):
+        """Generalized winding number of the surface around each point (1 inside, 0 outside)."""
+        return winding_numbers(self.triangles, as_points(points, "points", min_count=0))
 
     def contains(self, points):
         """(P,) bool: which points lie inside this closed mesh (winding number > 1/2)."""

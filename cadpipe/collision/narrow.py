@@ -17,8 +17,8 @@ from functools import cache
 
 import numpy as np
 
+from ..mesh import winding_numbers
 from .bounds import KDOP_DIRECTIONS
-from .capsules import BATCH
 from .hierarchy import chain_gaps
 
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
@@ -38,27 +38,6 @@ def relative(pose_a, pose_b):
 def _apply(matrix, points):
     """Points (..., K, 3) moved by matrices (..., 4, 4)."""
     return points @ matrix[..., :3, :3].swapaxes(-1, -2) + matrix[..., None, :3, 3]
-
-
-def winding_numbers(triangles, points):
-    """Generalized winding number of a closed triangle soup at each point.
-
-    The sum of the signed solid angles of the triangles seen from the point
-    (Van Oosterom and Strackee's formula) over 4 pi: 1 inside a closed outward
-    mesh, 0 outside. Vectorized over triangles, batched over points.
-    """
-    points = np.asarray(points, np.float64)
-    out = np.empty(len(points))
-    step = max(1, BATCH // max(len(triangles), 1))
-    for start in range(0, len(points), step):
-        rel = triangles[None] - points[start:start + step, None, None, :]
-        a, b, c = rel[:, :, 0], rel[:, :, 1], rel[:, :, 2]
-        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
-        det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
-        den = (la * lb * lc + np.einsum("pfi,pfi->pf", a, b) * lc
-               + np.einsum("pfi,pfi->pf", b, c) * la + np.einsum("pfi,pfi->pf", c, a) * lb)
-        out[start:start + step] = np.arctan2(det, den).sum(axis=1) / (2.0 * np.pi)
-    return out
 
 
 def pseudo_normals(mesh):
