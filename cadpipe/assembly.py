@@ -19,7 +19,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ._validate import as_choice
-from .booleans import as_solid, combine, reserve_ids, snap
+from .booleans import as_solid, combine, is_void, reserve_ids, snap
 from .errors import CadpipeError, GeometryError, InputError
 from .mesh import Mesh
 from .scene import Scene, ScenePart, meters_per_unit, parse_color
@@ -191,7 +191,7 @@ class Assembly:
                                  "combining it")
             self._prepare(progress)
             solid = combine(*self._operands)
-            if solid.is_empty():
+            if is_void(solid, self._operands[0]):
                 raise GeometryError(f"assembly {self.name!r}: nothing is left after the "
                                     "subtractions and intersections")
             self._union = Mesh.from_manifold(solid, part_names=self._names,

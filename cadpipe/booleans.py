@@ -185,6 +185,13 @@ def combine(adds, cuts=(), clips=()):
     return Manifold.batch_boolean(pieces, Op.Add)
 
 
+def is_void(solid, adds):
+    """Whether a boolean result is empty or only zero-volume slivers: manifold3d can
+    leave a degenerate shell where equal solids cancel."""
+    reference = sum(m.volume() for m in adds)
+    return solid.is_empty() or solid.volume() <= 1e-9 * reference
+
+
 def carve(bodies, bores=(), name="solid", **mesh_options):
     """The :class:`Mesh` of ``union(bodies) - union(bores)``: a hollow part on its own.
 
@@ -195,6 +202,6 @@ def carve(bodies, bores=(), name="solid", **mesh_options):
     adds = [as_solid(m, f"{name} body {i}", next(ids)) for i, m in enumerate(bodies)]
     cuts = [as_solid(m, f"{name} bore {i}", next(ids)) for i, m in enumerate(bores)]
     solid = combine(adds, cuts)
-    if solid.is_empty():
+    if is_void(solid, adds):
         raise GeometryError(f"{name}: nothing is left after cutting the bores")
     return Mesh.from_manifold(solid, **mesh_options)

@@ -183,3 +183,14 @@ def test_parts_whose_boxes_overlap_nothing_skip_boolean_work(monkeypatch):
     assert unions[:-1] == [2] and unions[-1] == 6        # the last call composes the pieces
     per_cube = np.bincount(solid.face_part)[:5]
     assert per_cube.tolist() == [len(unit.faces)] * 5    # the cubes' triangles are unchanged
+
+
+def test_subtracting_an_equal_solid_leaves_nothing_not_a_sliver():
+    # found by the spec fuzzer: manifold3d left a zero-volume shell
+    pipe = cadpipe.Pipe([[0, 0, 0], [1, 0, 0]], 0.0625, sides=4)
+    asm = cadpipe.Assembly()
+    asm.add("kept", pipe)
+    asm.subtract("same", pipe)
+    asm.subtract("cross", cadpipe.Pipe([[0, 0, 0], [0, 0, 1]], 0.0625, sides=3))
+    with pytest.raises(cadpipe.GeometryError, match="nothing is left"):
+        asm.union()
