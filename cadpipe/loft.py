@@ -39,8 +39,7 @@ def fan_faces(ring_start, sides, *, apex=None, at_end=False):
         k = k[1:-1]
         tri = np.stack([np.zeros_like(k), k, k + 1], 1) + ring_start
     else:
-        tri = np.stack([np.full(sides, apex - ring_start), k, (k + 1) % sides], 1) + ring_start
-        tri[:, 0] = apex
+        tri = np.stack([np.full(sides, apex), k + ring_start, (k + 1) % sides + ring_start], 1)
     return tri if at_end else tri[:, ::-1]
 
 

@@ -232,11 +232,6 @@ class Pipe:
         vertices, faces, _ = surface.build()
         return vertices, faces
 
-    @property
-    def cap_ring_count(self):
-        """Rings a cap adds before its pole (0 for flat caps)."""
-        return self.cap_segments - 1 if self.caps == "round" else 0
-
     def units(self, overlap=0.0):
         """Convex pieces whose union is the tube: each path unit, plus round caps.
 
