@@ -17,9 +17,9 @@ import numpy as np
 import trimesh
 
 import cadpipe
-from cadpipe.exporters.stl import write_stl
-from cadpipe.exporters.threemf import write_3mf
-from cadpipe.exporters.usd import write_usd
+from cadpipe.io.stl import write_stl
+from cadpipe.io.threemf import write_3mf
+from cadpipe.io.usd import write_usd
 
 RINGS, SIDES, RADIUS = 20_000, 25, 0.02
 TARGETS = {"STL (binary)": (0.1, 3.0), ".usdc": (0.5, None), "3MF": (None, 3.0)}

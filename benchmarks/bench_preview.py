@@ -1,7 +1,7 @@
 """Offscreen preview speed: cadpipe's numpy z-buffer against VTK and matplotlib.
 
 One 200k-triangle pipe (a helix, 50 sides) is drawn to a 960x720 PNG by
-cadpipe.preview.render_png, by pyvista/VTK off screen (software OpenGL: OSMesa or
+cadpipe.io.preview.render_png, by pyvista/VTK off screen (software OpenGL: OSMesa or
 EGL, whichever the wheel finds; no GPU) and by matplotlib's Agg backend
 (Poly3DCollection, painter's algorithm). Each call is one-shot, as a preview is; the
 fastest of several runs is reported (the machine may be shared).
@@ -16,7 +16,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from cadpipe import Path, Pipe
-from cadpipe.preview import render_png, write_html
+from cadpipe.io.preview import render_png, write_html
 
 SIZE = (960, 720)
 

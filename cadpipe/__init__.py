@@ -4,17 +4,17 @@ The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
 :class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then export.
 """
 
-from . import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
-from .assembly import Assembly
-from .collision import CollisionWorld
-from .errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
-from .hollow import HollowChain, HollowPipe, Junction
-from .inspect import check_mesh
-from .mesh import Mesh
-from .path import Path
-from .pipe import Pipe
-from .spec import load
-from .splice import splice
+from cadpipe.solids import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
+from cadpipe.solids.assembly import Assembly
+from cadpipe.collision import CollisionWorld
+from cadpipe.errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
+from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
+from cadpipe.solids.validity import check_mesh
+from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.path import Path
+from cadpipe.geometry.pipe import Pipe
+from cadpipe.io.spec import load
+from cadpipe.geometry.splice import splice
 
 __version__ = "0.1.0"
 
@@ -22,3 +22,7 @@ __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "In
            "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "check_mesh",
            "splice"]
 __all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "load"]
+
+from cadpipe import _moved
+
+_moved.install()

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from .errors import InputError
+from cadpipe.errors import InputError
 
 
 def as_points(value, name, *, dim=3, min_count=1):

@@ -147,7 +147,7 @@ def _exit_table(codes):
 
 def cli_reference():
     """The text of ``docs/cli.md``."""
-    from cadpipe import commands  # noqa: F401  (registers the subcommands)
+    from cadpipe.cli import commands  # noqa: F401  (registers the subcommands)
 
     parser = build_parser()
     found = _subparsers(parser)
@@ -205,8 +205,8 @@ def fin(pipe, width):
 
 def frames_figure(path):
     """Rotation-minimizing vs patent frames on a helix beside the origin, rendered by cadpipe."""
-    from cadpipe.preview import render_png
-    from cadpipe.scene import Scene, ScenePart, parse_color
+    from cadpipe.io.preview import render_png
+    from cadpipe.io.scene import Scene, ScenePart, parse_color
 
     t = np.linspace(0.0, 4 * np.pi, 240)
     helix = cadpipe.Path(np.column_stack([0.5 * np.cos(t) + 0.8, 0.5 * np.sin(t), 0.15 * t]))
@@ -232,7 +232,7 @@ def wireframe_svg(mesh, view, labels, width=900):
     Faces are projected orthographically and painted far to near (enough for a tube
     seen from the side). ``labels`` maps part names to legend text.
     """
-    from cadpipe.preview import AMBIENT, DIFFUSE, LIGHT, PALETTE, view_rotation
+    from cadpipe.io.preview import AMBIENT, DIFFUSE, LIGHT, PALETTE, view_rotation
 
     camera = mesh.vertices @ view_rotation(view).T
     corners = camera[mesh.faces]
@@ -289,8 +289,8 @@ def hooks():
 def certificate_figures(svg_path, png_path):
     """The separating chain for :func:`hooks` and the pipes it separates, seen from above."""
     from cadpipe.collision.certificate_svg import COLOURS
-    from cadpipe.preview import render_png
-    from cadpipe.scene import Scene, ScenePart, parse_color
+    from cadpipe.io.preview import render_png
+    from cadpipe.io.scene import Scene, ScenePart, parse_color
 
     pipes = hooks()
     world = cadpipe.CollisionWorld()

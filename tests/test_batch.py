@@ -7,11 +7,11 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import Path, Pipe, splice
-from cadpipe.clearance import _samples, distant_pairs
-from cadpipe.loft import Surface
-from cadpipe.pipe import tubes_of
-from cadpipe.ragged import Groups
-from cadpipe.tubes import ring_basis
+from cadpipe.geometry.clearance import _samples, distant_pairs
+from cadpipe.geometry.loft import Surface
+from cadpipe.geometry.pipe import tubes_of
+from cadpipe.geometry.ragged import Groups
+from cadpipe.geometry.rings import ring_basis
 
 
 def per_item(counts, closed, values):

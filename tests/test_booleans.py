@@ -8,8 +8,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 import cadpipe
-from cadpipe import primitives
-from cadpipe.booleans import as_solid, combine, overlap_pairs, reserve_ids
+from cadpipe.solids import primitives
+from cadpipe.solids.booleans import as_solid, combine, overlap_pairs, reserve_ids
 
 
 def solids(*meshes):

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe.cli import main
-from cadpipe.intersect import box_pairs, self_intersections
+from cadpipe.solids.intersect import box_pairs, self_intersections
 
 
 def straight_pipe(length=2.0, radius=0.25, sides=12):

@@ -7,9 +7,9 @@ import pytest
 from PIL import Image
 
 import cadpipe
-from cadpipe import demo
+from cadpipe.cli import welding_cell as demo
 from cadpipe.cli import main
-from cadpipe.preview import render_png
+from cadpipe.io.preview import render_png
 
 
 @pytest.fixture(scope="module")

@@ -94,7 +94,7 @@ def test_cli_reference_is_generated_from_the_parsers():
 
 
 def test_cli_reference_names_every_option():
-    from cadpipe import commands  # noqa: F401  (registers the subcommands)
+    from cadpipe.cli import commands  # noqa: F401  (registers the subcommands)
     from cadpipe.cli import build_parser
 
     text = (DOCS / "cli.md").read_text(encoding="utf-8")

@@ -18,12 +18,12 @@ from scipy.spatial import cKDTree
 
 import cadpipe
 from cadpipe.errors import ExportError, InputError
-from cadpipe.exporters import export
-from cadpipe.exporters.normals import shading_normals, split_for_normals
-from cadpipe.exporters.stl import write_stl
-from cadpipe.exporters.text import ascii_rows, float32_decimal
-from cadpipe.exporters.trimesh_formats import gltf_root
-from cadpipe.scene import Scene, ScenePart, as_scene
+from cadpipe.io.files import export
+from cadpipe.io.normals import shading_normals, split_for_normals
+from cadpipe.io.stl import write_stl
+from cadpipe.io.text import ascii_rows, float32_decimal
+from cadpipe.io.trimesh_formats import gltf_root
+from cadpipe.io.scene import Scene, ScenePart, as_scene
 
 BUILT_IN = ("stl", "usda", "usdc", "usdz", "3mf", "glb", "obj", "ply")
 MESH_FORMATS = ("stl", "3mf", "glb", "obj", "ply")
@@ -382,7 +382,7 @@ def test_failed_rename_keeps_the_old_file_and_leaves_no_temp(tmp_path, monkeypat
 
 
 def test_3mf_writer_failing_midway_keeps_the_old_file(tmp_path, monkeypatch):
-    from cadpipe.exporters import threemf
+    from cadpipe.io import threemf
 
     real_rows = threemf._rows
 

@@ -6,7 +6,7 @@ import pytest
 
 import cadpipe
 from cadpipe import GeometryError, InputError, Path, Pipe
-from cadpipe.pipe import sides_for_tolerance
+from cadpipe.geometry.pipe import sides_for_tolerance
 
 
 def ngon_area(r, n):

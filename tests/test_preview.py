@@ -12,8 +12,8 @@ from PIL import Image
 
 from cadpipe import ExportError, InputError, Mesh, Path, Pipe
 from cadpipe.cli import main
-from cadpipe.preview import HIGHLIGHT, PALETTE, render_png, write_html
-from cadpipe.scene import Scene, ScenePart
+from cadpipe.io.preview import HIGHLIGHT, PALETTE, render_png, write_html
+from cadpipe.io.scene import Scene, ScenePart
 
 SIZE = (320, 240)
 TEAL = (0.15, 0.6, 0.5)
@@ -172,7 +172,7 @@ def _shift(dx):
 
 # -- the page, in headless Chromium ------------------------------------------------------
 WINDOW = (1000, 700)
-PANEL = 340                    # width of the page's side panel (px), see cadpipe.preview
+PANEL = 340                    # width of the page's side panel (px), see cadpipe.io.preview
 # everything a browser could reach out to is closed: no DNS, a dead proxy, no QUIC
 OFFLINE = ["--host-resolver-rules=MAP * ~NOTFOUND", "--proxy-server=http://127.0.0.1:9",
            "--disable-quic", "--disable-background-networking", "--disable-component-update",

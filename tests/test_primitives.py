@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import cadpipe
-from cadpipe import primitives
-from cadpipe.booleans import snap
+from cadpipe.solids import primitives
+from cadpipe.solids.booleans import snap
 
 
 def polygon_area(radius, sides):

@@ -7,8 +7,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from cadpipe import raster
-from cadpipe.raster import rasterize
+from cadpipe.io import raster
+from cadpipe.io.raster import rasterize
 
 W, H = 24, 18
 

@@ -13,8 +13,8 @@ import pytest
 import cadpipe
 from cadpipe import HollowChain, HollowPipe, Junction, Pipe, primitives
 from cadpipe.cli import main
-from cadpipe.spec import read
-from cadpipe.transform import placement
+from cadpipe.io.spec import read
+from cadpipe.solids.transform import placement
 
 EXAMPLES = FilePath(__file__).parent.parent / "assets" / "examples"
 
@@ -341,8 +341,8 @@ def test_loading_a_spec_runs_no_code(tmp_path):
 
 
 PLUGIN = '''
-from cadpipe import primitives
-from cadpipe.spec import Number
+from cadpipe.solids import primitives
+from cadpipe.io.spec import Number
 
 
 def tetra(ctx, *, edge: Number = 1.0):

@@ -5,12 +5,12 @@ Meshes go through FCL's BVHs (plus a containment test FCL lacks); pipes are
 checked analytically as chains of round cones; robots come from URDF.
 """
 
-from .bodies import Box, Capsule, Sphere
-from .cell import world_from_spec
-from .certificate import Certificate
-from .fixture import PipeContainment
-from .robot import Joint, Robot, srdf_disabled_pairs
-from .world import STAGES, Clearance, CollisionReport, CollisionReports, CollisionWorld, PairResult
+from cadpipe.collision.bodies import Box, Capsule, Sphere
+from cadpipe.collision.cell import world_from_spec
+from cadpipe.collision.certificate import Certificate
+from cadpipe.collision.fixture import PipeContainment
+from cadpipe.collision.robot import Joint, Robot, srdf_disabled_pairs
+from cadpipe.collision.world import STAGES, Clearance, CollisionReport, CollisionReports, CollisionWorld, PairResult
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
            "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment",

@@ -12,12 +12,12 @@ from functools import cached_property
 
 import numpy as np
 
-from .._validate import as_positive
-from ..errors import InputError
-from ..mesh import Mesh
-from ..pipe import Pipe
-from . import bounds
-from .capsules import Chain
+from cadpipe._validate import as_positive
+from cadpipe.errors import InputError
+from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.pipe import Pipe
+from cadpipe.collision import bounds
+from cadpipe.collision.capsules import Chain
 
 
 @dataclass(frozen=True)
@@ -161,7 +161,7 @@ class Body:
     @cached_property
     def pseudo_normals(self):
         """See :func:`cadpipe.collision.narrow.pseudo_normals` (meshes only)."""
-        from .narrow import pseudo_normals
+        from cadpipe.collision.narrow import pseudo_normals
 
         return pseudo_normals(self.mesh)
 
@@ -172,7 +172,7 @@ class Body:
         poses in the body's frame (FCL's capsule is centred on its z axis)."""
         import fcl
 
-        from .narrow import unit_poses
+        from cadpipe.collision.narrow import unit_poses
 
         chain = self.chain
         length = np.linalg.norm(chain.ends - chain.starts, axis=1)

@@ -250,7 +250,7 @@ class Chain:
     @cached_property
     def tree(self):
         """The chain's :class:`~cadpipe.collision.hierarchy.CapsuleTree`."""
-        from .hierarchy import CapsuleTree
+        from cadpipe.collision.hierarchy import CapsuleTree
 
         return CapsuleTree(self)
 
@@ -269,7 +269,7 @@ class Chain:
         only ``gap <= stop_below`` is meaningful, and the points are NaN where
         the search stopped early. Returns ``(gap, point_self, point_other)``.
         """
-        from .hierarchy import chain_gaps
+        from cadpipe.collision.hierarchy import chain_gaps
 
         poses = np.asarray(poses, np.float64)
         gap, units, params = chain_gaps(self, other, poses, stop_below)

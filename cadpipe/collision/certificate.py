@@ -96,13 +96,13 @@ class Certificate:
 
     def to_svg(self, size=480):
         """An SVG drawing of R, both projected objects and the chain."""
-        from .certificate_svg import render
+        from cadpipe.collision.certificate_svg import render
 
         return render(self, size)
 
     def save_svg(self, path):
         """Write :meth:`to_svg` to ``path`` (whole or not at all)."""
-        from ..exporters import atomic_path
+        from cadpipe.io.files import atomic_path
 
         with atomic_path(path) as tmp:
             FilePath(tmp).write_text(self.to_svg(), encoding="utf-8")

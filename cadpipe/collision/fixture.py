@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .capsules import round_cone_distance
+from cadpipe.collision.capsules import round_cone_distance
 
 #: golden-section steps and bisection steps (each shrinks the bracket below 1e-12)
 GOLDEN_STEPS = 60

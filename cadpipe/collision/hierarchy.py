@@ -33,7 +33,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .capsules import inverse, segment_params, unit_pair_gap
+from cadpipe.collision.capsules import inverse, segment_params, unit_pair_gap
 
 #: poses per pass of :func:`chain_gaps`: the frontier's arrays stay in cache
 CHUNK = 4096

@@ -17,9 +17,9 @@ from functools import cache
 
 import numpy as np
 
-from ..mesh import winding_numbers
-from .bounds import KDOP_DIRECTIONS
-from .hierarchy import chain_gaps
+from cadpipe.geometry.mesh import winding_numbers
+from cadpipe.collision.bounds import KDOP_DIRECTIONS
+from cadpipe.collision.hierarchy import chain_gaps
 
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
 INSIDE = 0.5

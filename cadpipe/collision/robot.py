@@ -15,8 +15,8 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
-from ..errors import InputError, MeshError, SpecError
-from ..mesh import Mesh
+from cadpipe.errors import InputError, MeshError, SpecError
+from cadpipe.geometry.mesh import Mesh
 
 MOVING = ("revolute", "continuous", "prismatic")
 

@@ -23,10 +23,11 @@ from functools import cached_property
 
 import numpy as np
 
-from ..errors import InputError
-from ..transform import is_rigid
-from . import bounds, narrow
-from .bodies import as_body
+from cadpipe.errors import InputError
+from cadpipe.solids.transform import is_rigid
+from cadpipe.collision import bounds
+from cadpipe.collision import narrow
+from cadpipe.collision.bodies import as_body
 
 #: stages that can decide a pair, in the order a pair meets them
 STAGES = ("allowed", "aabb", "kdop", "obb", "certificate", "fcl", "containment", "analytic",
@@ -554,7 +555,7 @@ class CollisionWorld:
         body_a, body_b = self._bodies[i], self._bodies[j]
         certificates = {}
         if certify:
-            from .certificate import find_certificate
+            from cadpipe.collision.certificate import find_certificate
 
             for e in range(len(poses_a)):
                 cert = find_certificate(body_a, poses_a[e], body_b, poses_b[e],
@@ -587,7 +588,7 @@ class CollisionWorld:
         A returned :class:`~cadpipe.collision.certificate.Certificate` has passed
         its independent verifier: it proves the pair does not touch.
         """
-        from .certificate import find_certificate
+        from cadpipe.collision.certificate import find_certificate
 
         i, j = self._find(a), self._find(b)
         options = {} if step_degrees is None else {"step_degrees": step_degrees}
@@ -600,8 +601,8 @@ class CollisionWorld:
 
         Returns a :class:`PipeContainment`.
         """
-        from .._validate import as_points
-        from .fixture import containment
+        from cadpipe._validate import as_points
+        from cadpipe.collision.fixture import containment
 
         i = self._find(pipe_name)
         body = self._bodies[i]

@@ -1,0 +1,363 @@
+"""The triangle mesh every stage hands to the next.
+
+:class:`Mesh` is small and immutable: vertices, faces and, after a boolean, the
+name of the part each face came from. Checks (watertight, volume, bodies) are
+computed on first use from numpy arrays and cached, so building a mesh costs
+nothing beyond its arrays.
+"""
+
+from functools import cached_property
+from types import MappingProxyType
+
+import numpy as np
+
+from cadpipe._validate import as_points
+from cadpipe._vec import cross
+from cadpipe.errors import InputError, MeshError
+
+
+def winding_numbers(triangles, points, chunk=2_000_000):
+    """Generalized winding number of a closed triangle soup ``(F, 3, 3)`` at each point.
+
+    The signed solid angles of the triangles seen from the point (Van Oosterom and
+    Strackee) summed over 4 pi: 1 inside a closed outward mesh, 0 outside.
+    Vectorized over triangles and points, in chunks of about ``chunk`` pairs.
+    """
+    out = np.empty(len(points))
+    step = max(1, chunk // max(len(triangles), 1))
+    for start in range(0, len(points), step):
+        r = triangles[None, :, :, :] - points[start:start + step, None, None, :]
+        n = np.linalg.norm(r, axis=3)
+        a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
+        det = np.einsum("pfi,pfi->pf", a, cross(b, c))
+        dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
+                + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
+                + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
+                + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
+        out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
+    return out
+
+
+def _frozen(arr, dtype):
+    arr = np.ascontiguousarray(arr, dtype=dtype)
+    arr.flags.writeable = False
+    return arr
+
+
+class Mesh:
+    """A triangle mesh: ``(V, 3)`` float64 vertices and ``(F, 3)`` int64 faces.
+
+    Parameters
+    ----------
+    vertices : (V, 3) array_like
+    faces : (F, 3) array_like of int
+        Counter-clockwise seen from outside, so normals point outward.
+    face_part : (F,) array_like of int, optional
+        Index into ``part_names`` for each face (set by booleans and splicing).
+    part_names : sequence of str, optional
+    attributes : mapping, optional
+        The parameters that made the mesh (radius, sides, ...); exporters
+        write them as metadata.
+    """
+
+    __slots__ = ("_vertices", "_faces", "_face_part", "_part_names", "_attributes", "__dict__")
+
+    def __init__(self, vertices, faces, *, face_part=None, part_names=(), attributes=None):
+        vertices = as_points(vertices, "vertices", min_count=0)
+        faces = np.asarray(faces)
+        if faces.size == 0:
+            faces = faces.reshape(0, 3)
+        if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
+            raise InputError(f"faces: expected an (F, 3) array of vertex indices, got "
+                             f"shape {faces.shape} of {faces.dtype}")
+        if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
+            raise InputError(f"faces: indices must lie in [0, {len(vertices) - 1}], "
+                             f"got [{faces.min()}, {faces.max()}]")
+        self._vertices = _frozen(vertices, np.float64)
+        self._faces = _frozen(faces, np.int64)
+        self._part_names = tuple(str(n) for n in part_names)
+        if face_part is None:
+            self._face_part = None
+        else:
+            face_part = np.asarray(face_part)
+            if face_part.shape != (len(faces),):
+                raise InputError(f"face_part: expected {len(faces)} part indices, "
+                                 f"got shape {face_part.shape}")
+            names = len(self._part_names)
+            if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
+                raise InputError("face_part: indices must point into part_names")
+            self._face_part = _frozen(face_part, np.int32)
+        self._attributes = MappingProxyType(dict(attributes or {}))
+
+    @classmethod
+    def trusted(cls, vertices, faces, *, face_part=None, part_names=(), attributes=None):
+        """Wrap arrays a cadpipe stage just built, skipping the input checks.
+
+        ``vertices`` must be finite float64 ``(V, 3)`` and ``faces`` int64 ``(F, 3)``
+        indices into them (``face_part``, if given, indices into ``part_names``);
+        large pipes are built faster than they can be re-checked.
+        """
+        mesh = cls.__new__(cls)
+        mesh._vertices = _frozen(vertices, np.float64)
+        mesh._faces = _frozen(faces, np.int64)
+        mesh._face_part = None if face_part is None else _frozen(face_part, np.int32)
+        mesh._part_names = tuple(str(n) for n in part_names)
+        mesh._attributes = MappingProxyType(dict(attributes or {}))
+        return mesh
+
+    # -- data -----------------------------------------------------------------
+    @property
+    def vertices(self):
+        """(V, 3) float64, read-only."""
+        return self._vertices
+
+    @property
+    def faces(self):
+        """(F, 3) int64, read-only."""
+        return self._faces
+
+    @property
+    def face_part(self):
+        """(F,) int32 index into :attr:`part_names`, or None for a single-part mesh."""
+        return self._face_part
+
+    @property
+    def part_names(self):
+        return self._part_names
+
+    @property
+    def attributes(self):
+        """Read-only mapping of the parameters that made this mesh."""
+        return self._attributes
+
+    def __repr__(self):
+        return f"<cadpipe.Mesh {len(self._vertices)} vertices, {len(self._faces)} faces>"
+
+    def with_parts(self, part_names, face_part=None):
+        """The same geometry labelled with part names (all faces in part 0 by default)."""
+        if face_part is None:
+            face_part = np.zeros(len(self._faces), np.int32)
+        return Mesh(self._vertices, self._faces, face_part=face_part,
+                    part_names=part_names, attributes=self._attributes)
+
+    def with_attributes(self, **attributes):
+        return Mesh(self._vertices, self._faces, face_part=self._face_part,
+                    part_names=self._part_names, attributes={**self._attributes, **attributes})
+
+    # -- geometry -------------------------------------------------------------
+    @cached_property
+    def triangles(self):
+        """(F, 3, 3) corner coordinates."""
+        return self._vertices[self._faces]
+
+    @cached_property
+    def _cross(self):
+        t = self.triangles
+        return cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+
+    @cached_property
+    def face_areas(self):
+        return 0.5 * np.linalg.norm(self._cross, axis=1)
+
+    @cached_property
+    def face_normals(self):
+        """Unit normals by the right-hand rule (zero for degenerate faces)."""
+        norm = np.linalg.norm(self._cross, axis=1, keepdims=True)
+        return np.divide(self._cross, norm, out=np.zeros_like(self._cross), where=norm > 0)
+
+    @cached_property
+    def area(self):
+        return float(self.face_areas.sum())
+
+    @cached_property
+    def volume(self):
+        """Signed volume by the divergence theorem: positive when faces point outward."""
+        t = self.triangles
+        return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
+
+    @cached_property
+    def bounds(self):
+        """(2, 3) array: minimum and maximum corner."""
+        if len(self._vertices) == 0:
+            return np.zeros((2, 3))
+        return np.array([self._vertices.min(axis=0), self._vertices.max(axis=0)])
+
+    # -- topology -------------------------------------------------------------
+    @cached_property
+    def _edge_counts(self):
+        """Occurrences of each directed edge and of its reverse."""
+        f = self._faces
+        a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+        b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+        n = max(len(self._vertices), 1)
+        keys = a * n + b
+        unique, counts = np.unique(keys, return_counts=True)
+        reverse = (unique % n) * n + unique // n
+        pos = np.searchsorted(unique, reverse).clip(0, len(unique) - 1)
+        reverse_counts = np.where(unique[pos] == reverse, counts[pos], 0) if len(unique) else counts
+        return counts, reverse_counts
+
+    @cached_property
+    def is_watertight(self):
+        """Every edge is shared by exactly two faces, traversed once in each direction."""
+        if len(self._faces) == 0:
+            return False
+        counts, reverse_counts = self._edge_counts
+        return bool(np.all(counts == 1) and np.all(reverse_counts == 1))
+
+    @cached_property
+    def is_winding_consistent(self):
+        """No edge is traversed twice in the same direction."""
+        counts, _ = self._edge_counts
+        return bool(np.all(counts == 1))
+
+    @cached_property
+    def is_outward(self):
+        """Closed, consistently wound and with positive volume."""
+        return self.is_watertight and self.volume > 0
+
+    @cached_property
+    def body_labels(self):
+        """(V,) connected-component label of each vertex."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        f = self._faces
+        n = len(self._vertices)
+        rows = np.concatenate([f[:, 0], f[:, 1]])
+        cols = np.concatenate([f[:, 1], f[:, 2]])
+        graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n, n))
+        return connected_components(graph, directed=False)[1]
+
+    @cached_property
+    def n_bodies(self):
+        """Number of connected pieces (vertices used by no face are ignored)."""
+        if len(self._faces) == 0:
+            return 0
+        return int(len(np.unique(self.body_labels[self._faces[:, 0]])))
+
+    @cached_property
+    def euler_characteristic(self):
+        used = len(np.unique(self._faces))
+        edges = len(np.unique(np.sort(self._faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1),
+                              axis=0))
+        return int(used - edges + len(self._faces))
+
+    @cached_property
+    def genus(self):
+        """Genus of a closed single-body mesh (0 for a sphere-like tube, 1 for a loop)."""
+        return (2 * self.n_bodies - self.euler_characteristic) // 2
+
+    def winding_numbers(self, points):
+        """Generalized winding number of the surface around each point (1 inside, 0 outside)."""
+        return winding_numbers(self.triangles, as_points(points, "points", min_count=0))
+
+    def contains(self, points):
+        """(P,) bool: which points lie inside this closed mesh (winding number > 1/2)."""
+        return self.winding_numbers(points) > 0.5
+
+    def require_solid(self, name="mesh"):
+        """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
+        if not self.is_watertight:
+            raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
+                            "close the holes or repair it before using it as a solid")
+        if self.volume <= 0:
+            raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
+                            "flip its faces")
+        return self
+
+    # -- transforms -----------------------------------------------------------
+    def transformed(self, matrix):
+        """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors)."""
+        matrix = np.asarray(matrix, dtype=np.float64)
+        if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
+            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {matrix.shape}")
+        vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
+        faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
+        return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
+                    attributes=self._attributes)
+
+    @staticmethod
+    def concatenate(meshes):
+        """One mesh holding all the given meshes' faces; part names are merged in order."""
+        meshes = list(meshes)
+        if not meshes:
+            raise InputError("concatenate: expected at least one mesh")
+        names, index = [], {}
+        offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
+        face_parts = []
+        for i, m in enumerate(meshes):
+            own = m.part_names or (f"part{i}",)
+            ids = np.array([index.setdefault(n, len(index)) for n in own], np.int32)
+            names = list(index)
+            fp = m.face_part if m.face_part is not None else np.zeros(len(m.faces), np.int32)
+            face_parts.append(ids[fp])
+        return Mesh(np.concatenate([m.vertices for m in meshes]),
+                    np.concatenate([m.faces + o for m, o in zip(meshes, offsets)]),
+                    face_part=np.concatenate(face_parts), part_names=names)
+
+    # -- other libraries --------------------------------------------------------
+    def to_trimesh(self):
+        """A :class:`trimesh.Trimesh` sharing no state, with ``process=False``."""
+        import trimesh
+
+        return trimesh.Trimesh(np.array(self._vertices), np.array(self._faces), process=False)
+
+    @classmethod
+    def from_trimesh(cls, tm, **kwargs):
+        return cls(tm.vertices, tm.faces, **kwargs)
+
+    def to_manifold(self, name="mesh"):
+        """A :class:`manifold3d.Manifold`; raises :class:`MeshError` if it rejects the mesh."""
+        import manifold3d
+
+        mesh = manifold3d.Mesh64(vert_properties=np.array(self._vertices),  # writeable copy
+                                 tri_verts=self._faces.astype(np.uint64))
+        solid = manifold3d.Manifold(mesh)
+        status = solid.status()
+        if status != manifold3d.Error.NoError:
+            raise MeshError(f"{name}: manifold3d rejected the mesh ({status.name}); "
+                            "it must be a closed, oriented 2-manifold")
+        return solid
+
+    @classmethod
+    def from_manifold(cls, solid, part_names=None, **kwargs):
+        """Convert a manifold3d result; ``part_names`` maps original ids to part names."""
+        m = solid.to_mesh64()
+        vertices = np.asarray(m.vert_properties)[:, :3]
+        faces = np.asarray(m.tri_verts, dtype=np.int64)
+        merge_from = np.asarray(m.merge_from_vert, dtype=np.int64)
+        if len(merge_from):
+            # manifold3d splits vertices between triangle runs; its merge vectors weld them
+            target = np.arange(len(vertices))
+            target[merge_from] = np.asarray(m.merge_to_vert, dtype=np.int64)
+            used, faces = np.unique(target[faces], return_inverse=True)
+            vertices, faces = vertices[used], faces.reshape(-1, 3)
+        if not part_names:
+            return cls(vertices, faces, **kwargs)
+        run_ids = [int(i) for i in m.run_original_id]
+        unknown = [i for i in run_ids if i not in part_names]
+        if unknown:
+            raise MeshError(f"boolean result has triangles from an unknown part (id {unknown[0]})")
+        counts = np.diff(np.asarray(m.run_index, dtype=np.int64)) // 3
+        run_names = [part_names[i] for i in run_ids]
+        # only the parts that still have triangles label this mesh
+        present = {n for n, c in zip(run_names, counts) if c}
+        names = [n for n in dict.fromkeys(part_names.values()) if n in present]
+        index = {n: k for k, n in enumerate(names)}
+        face_part = np.repeat([index.get(n, -1) for n in run_names], counts).astype(np.int32)
+        return cls(vertices, faces, face_part=face_part, part_names=names, **kwargs)
+
+    # -- files ----------------------------------------------------------------
+    def export(self, path, **options):
+        """Write to ``path``; the format follows the suffix (see :mod:`cadpipe.io.files`)."""
+        from cadpipe.io.files import export
+
+        return export(self, path, **options)
+
+    @classmethod
+    def load(cls, path):
+        """Read any mesh format trimesh reads (STL, OBJ, PLY, GLB, 3MF, ...)."""
+        from cadpipe.io.files import load_mesh
+
+        return load_mesh(path)

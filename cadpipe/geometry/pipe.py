@@ -1,0 +1,329 @@
+"""Steps S2-S4: a pipe of regular n-gon rings along a path, closed into a solid.
+
+A :class:`Pipe` is a description (path, radii, sides, caps, frame, ...); its
+:meth:`Pipe.mesh` builds the watertight, outward-facing triangle mesh. The
+pieces a splice needs (rings, frames) are public, so a transition between two
+pipes is built from the same rings the pipes themselves use.
+"""
+
+from functools import cached_property, partial
+
+import numpy as np
+
+from cadpipe._validate import as_choice, as_int, as_positive
+from cadpipe._vec import cross
+from cadpipe.errors import GeometryError, InputError
+from cadpipe.geometry.frames import FRAME_MODES, as_direction
+from cadpipe.geometry.loft import Surface, write_fan
+from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.path import Path, polylines
+from cadpipe.geometry.rings import Tubes, ring_basis
+
+CAP_STYLES = ("flat", "round")
+CORNER_STYLES = ("miter", "round")
+MAX_SIDES = 4096
+
+
+def sides_for_tolerance(radius, tolerance):
+    """Fewest sides whose polygon stays within ``tolerance`` of a circle of ``radius``."""
+    ratio = 1.0 - float(tolerance) / float(radius)
+    if ratio <= -1.0:
+        return 3
+    return max(3, int(np.ceil(np.pi / np.arccos(max(ratio, -1.0)) - 1e-9)))
+
+
+def envelope_factor(sides):
+    """Circumradius over inradius of a regular polygon: ``1 / cos(pi / sides)``."""
+    return 1.0 / np.cos(np.pi / sides)
+
+
+class Pipe:
+    """A tube of regular ``sides``-gon rings along a path.
+
+    Parameters
+    ----------
+    path : Path or (N, 3) array_like
+    radius : float or (N,) array_like
+        Tube radius, or one per path point.
+    sides : int, optional
+        Vertices per ring (3 to 4096). Chosen from ``tolerance`` when omitted (16 when
+        neither is given).
+    caps : {"flat", "round"}
+        End caps of an open path; a closed path needs none.
+    envelope : bool
+        False: ring vertices on the circle (the polygon lies inside the round tube).
+        True: circumscribe it (circumradius ``r / cos(pi/sides)``), so the mesh
+        encloses the round tube, as a safety envelope must.
+    tolerance : float, optional
+        Chordal tolerance used to choose ``sides``.
+    frame : {"rmf", "patent"}
+        Rotation-minimizing frames (default) or the source's ``OP x L`` rule.
+    normal : (3,) array_like, optional
+        Direction of the first ring's vertex 0.
+    end_normal : (3,) array_like, optional
+        Direction the last ring's vertex 0 must take (up to the ring's symmetry, see
+        :attr:`seam_shift`), e.g. to meet a flange; the twist is spread evenly.
+    corners : {"miter", "round"}
+        Polyline corners as miter joints (full radius through the bend), or rounded
+        with arcs of ``bend_radius``.
+    bend_radius : float, optional
+        Fillet radius for ``corners="round"`` (default: twice the largest radius).
+    miter_limit : float
+        Largest allowed stretch ``1/cos(turn/2)`` of a mitered ring (default 4, as SVG).
+    cap_segments : int, optional
+        Latitude steps of a round cap (default ``max(2, sides // 4)``).
+    repair : bool
+        If the tube would intersect itself, build the solid as a manifold3d union of
+        its convex units instead of raising :class:`GeometryError`.
+    """
+
+    def __init__(self, path, radius, sides=None, *, caps="flat", envelope=False, tolerance=None,
+                 frame="rmf", normal=None, end_normal=None, corners="miter", bend_radius=None,
+                 miter_limit=4.0,
+                 cap_segments=None, repair=False):
+        source = path if isinstance(path, Path) else Path(path)
+        radii = as_positive(radius, "radius", count=len(source))
+        self.caps = as_choice(caps, "caps", CAP_STYLES)
+        self.frame = as_choice(frame, "frame", FRAME_MODES)
+        self.corners = as_choice(corners, "corners", CORNER_STYLES)
+        self.envelope = bool(envelope)
+        self.repair = bool(repair)
+        self.normal = normal
+        self.end_normal = end_normal
+        self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
+        if self.miter_limit < 1.0:
+            raise InputError(f"miter_limit: must be >= 1, got {miter_limit}")
+        if sides is None:
+            if tolerance is None:
+                sides = 16
+            else:
+                tol = float(as_positive(tolerance, "tolerance"))
+                sides = sides_for_tolerance(radii.max(), tol)
+                if sides > MAX_SIDES:
+                    raise InputError(f"tolerance: {tol:g} needs {sides} sides, more than "
+                                     f"{MAX_SIDES}; use a larger tolerance")
+        self.sides = as_int(sides, "sides", low=3, high=MAX_SIDES)
+        self.cap_segments = as_int(max(2, self.sides // 4) if cap_segments is None
+                                   else cap_segments, "cap_segments", low=1, high=MAX_SIDES)
+        radii = np.broadcast_to(radii, (len(source),))
+        if float(radii.min()) <= source._tolerance:
+            raise InputError(f"radius: {radii.min():g} is too small for this path, whose "
+                             f"points closer than {source._tolerance:g} count as one; use a "
+                             "larger radius")
+        if self.corners == "round":
+            bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
+            self.bend_radius = float(as_positive(bend, "bend_radius"))
+            source, index = source.fillet(self.bend_radius)
+            radii = radii[index]
+        else:
+            self.bend_radius = None
+        self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
+                              frame=self.frame, normal=normal, end_normal=end_normal,
+                              miter_limit=self.miter_limit, cap_segments=self.cap_segments,
+                              repair=self.repair)
+        self.path = source
+        self.radii = np.array(radii, dtype=np.float64)
+        self.radii.flags.writeable = False
+
+    def __repr__(self):
+        return (f"<cadpipe.Pipe {self.sides} sides, {len(self.path)} rings, "
+                f"radius {self.radii.min():.6g}..{self.radii.max():.6g}>")
+
+    def trimmed(self, start=0.0, end=0.0):
+        """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
+        path, arc = self.path.trimmed(start, end)
+        radii = np.interp(arc, self.path.arc_length, self.radii)
+        return Pipe(path, radii, **self._settings)
+
+    @property
+    def closed(self):
+        return self.path.closed
+
+    @property
+    def ring_radii(self):
+        """(N,) distance of ring vertices from the axis (radius, or circumradius)."""
+        return self.radii * envelope_factor(self.sides) if self.envelope else self.radii
+
+    @cached_property
+    def _tubes(self):
+        return tubes_of([self])
+
+    @property
+    def normals(self):
+        """(N, 3) unit direction of each ring's vertex 0 (before miter stretch)."""
+        return np.ascontiguousarray(self._tubes.normals.T)
+
+    @property
+    def binormals(self):
+        return cross(self.path.tangents, self.normals)
+
+    @property
+    def seam_shift(self):
+        """The last ring's vertex k meets vertex k + shift of the ring it must match: the
+        first ring of a closed pipe, or the ring that ``end_normal`` describes."""
+        return int(self._tubes.seam_shift[0])
+
+    @property
+    def miter_stretch(self):
+        """(N,) factor ``1 / cos(turn / 2)`` by which each ring is stretched in its bend plane."""
+        return self._tubes.miter_stretch
+
+    def ring_axes(self):
+        """(N, 2, 3) vectors that map ``(cos a, sin a)`` to a ring vertex offset.
+
+        Each ring is the circle of ``ring_radii`` in the plane normal to the
+        tangent, stretched by :attr:`miter_stretch` along the bend direction so that
+        it lies on both adjacent segments' cylinders.
+        """
+        return self._tubes.axes[:, :2]
+
+    def rings(self, sides=None):
+        """(N, sides, 3) ring vertices, counter-clockwise about the tangent.
+
+        ``sides`` defaults to the pipe's own; rings of other sizes on the same frames
+        are what a splice's transitions are made of.
+        """
+        return self._tubes.rings(slice(None), self.sides if sides is None else sides)
+
+    def attributes(self):
+        """The parameters that made this pipe, for exporters' metadata."""
+        return {"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+                "radius_max": float(self.radii.max()), "path_length": self.path.length,
+                "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
+                "envelope": self.envelope, "frame": self.frame, "corners": self.corners}
+
+    # -- checks and mesh -----------------------------------------------------
+    def self_intersections(self):
+        """Where the tube would cut through itself: a list of human-readable findings.
+
+        Checks miter limits, rings that overlap within a segment (the radius exceeds
+        the local bend radius) and non-neighbouring parts of the tube closer than
+        the sum of their radii.
+        """
+        return self._tubes.self_intersections()[0]
+
+    def mesh(self):
+        """The closed, outward-oriented, watertight triangle mesh of this pipe.
+
+        Raises :class:`GeometryError` if the tube intersects itself, unless the pipe
+        was made with ``repair=True``.
+        """
+        problems = self.self_intersections()
+        if problems:
+            if not self.repair:
+                raise GeometryError(f"the pipe intersects itself: {problems[0]}"
+                                    + (f" (and {len(problems) - 1} more)" if len(problems) > 1
+                                       else "")
+                                    + "; smooth the path, reduce the radius, or pass repair=True")
+            return self._repaired_mesh()
+        vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
+        return Mesh.trusted(vertices, faces, attributes=self.attributes())
+
+    def surface(self, *, cap_start=True, cap_end=True):
+        """Vertices and faces of the side surface plus the requested end caps.
+
+        Vertices are the rings in travel order (a round start cap's rings first, a
+        round end cap's last), then the caps' poles. Without a cap, the first or last
+        ``sides`` vertices are that end's open ring: a splice stitches it to the next
+        piece.
+        """
+        surface = Surface()
+        add_pipe_surfaces(surface, self._tubes, [self], cap_start=[cap_start], cap_end=[cap_end])
+        vertices, faces, _ = surface.build()
+        return vertices, faces
+
+    def units(self, overlap=0.0):
+        """Convex pieces whose union is the tube: each path unit, plus round caps.
+
+        Each unit is the point set of two consecutive rings (their convex hull is the
+        unit); a round cap is its end ring, cap rings and pole. ``overlap`` pushes
+        each unit's rings that far outward along its segment, so that neighbouring
+        units overlap instead of merely touching (booleans treat touching solids as
+        apart).
+        """
+        rings = self.rings()
+        cur = np.arange(len(self.path.segments))
+        nxt = (cur + 1) % len(rings)
+        shift = overlap * self.path.directions[:, None, :]
+        pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
+        if not self.closed and self.caps == "round":
+            for row, sign in ((0, -1), (len(rings) - 1, 1)):
+                axes, pole = cap_axes(self._tubes, row, sign, self)
+                cap = np.matmul(ring_basis(self.sides), axes).reshape(-1, 3)
+                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
+        return pieces
+
+    def _repaired_mesh(self):
+        """Union of the convex units through manifold3d: valid even where the tube folds."""
+        import manifold3d
+
+        overlap = 1e-6 * float(self.ring_radii.max())
+        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units(overlap)]
+        solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
+        return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})
+
+
+def tubes_of(pipes):
+    """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes` batch."""
+    return Tubes(polylines([p.path for p in pipes]),
+                 np.concatenate([p.ring_radii for p in pipes]),
+                 [p.sides for p in pipes], [p.miter_limit for p in pipes],
+                 patent=[p.frame == "patent" for p in pipes],
+                 normals=np.array([as_direction(p.normal, "normal") for p in pipes]),
+                 end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]))
+
+
+def cap_axes(tubes, row, sign, pipe):
+    """A round cap's latitude rings past the end ring at ``row`` (outward from the
+    tube, along ``sign`` times the tangent) as ring axes and centres (see
+    :func:`~cadpipe.geometry.rings.ring_basis`), and its pole."""
+    m = pipe.cap_segments
+    lat = (np.pi / 2) * np.arange(1, m) / m
+    scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
+    centre = tubes.lines.xyz[:, row]
+    rise = tubes.ring_radii[row] * scale * sign * tubes.lines.tangents[:, row]
+    axes = np.empty((m - 1, 3, 3))
+    axes[:, :2] = (scale * np.cos(lat))[:, None, None] * tubes.axes[row, :2]
+    axes[:, 2] = centre + np.sin(lat)[:, None] * rise
+    return axes, centre + rise
+
+
+def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
+    """Lay out the pipes (``tubes``' groups, in order) in ``surface``: their rings, side
+    faces and the requested caps (see :meth:`Pipe.surface`).
+
+    Returns the vertex index of each pipe's first and last ring (its own, not a cap's).
+    """
+    groups, sides = tubes.groups, tubes.sides
+    firsts, lasts = groups.first.tolist(), groups.last.tolist()
+    runs = [tubes.axes[a:b + 1] for a, b in zip(firsts, lasts)]
+    # caps: at most the two ends of a chain, or a lone pipe's
+    capped = [g for g, pipe in enumerate(pipes)
+              if (cap_start[g] or cap_end[g]) and not pipe.closed]
+    caps, rings_before = {}, np.zeros(len(pipes), np.int64)
+    for g in capped:
+        pipe = pipes[g]
+        round_caps = pipe.caps == "round"
+        start = cap_axes(tubes, firsts[g], -1, pipe) if cap_start[g] and round_caps else None
+        end = cap_axes(tubes, lasts[g], +1, pipe) if cap_end[g] and round_caps else None
+        if start is not None or end is not None:
+            run = runs[g]
+            runs[g] = np.concatenate([run[:0] if start is None else start[0][::-1], run,
+                                      run[:0] if end is None else end[0]])
+            rings_before[g] = 0 if start is None else len(start[0])
+        caps[g] = (start, end)
+    first = surface.add_rings(runs, sides, parts, closed=groups.closed,
+                              seam_shift=tubes.seam_shift)
+    for g in capped:
+        n, part = int(sides[g]), None if parts is None else int(parts[g])
+        for wanted, cap, ring, at_end in (
+                (cap_start[g], caps[g][0], int(first[g]), False),
+                (cap_end[g], caps[g][1], int(first[g]) + (len(runs[g]) - 1) * n, True)):
+            if not wanted:
+                continue
+            apex = None if cap is None else surface.add_vertices(
+                1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
+            surface.add_faces(n if cap is not None else n - 2, partial(
+                write_fan, ring, n, apex, at_end), part)
+    ring0 = first + rings_before * sides
+    return ring0, ring0 + (groups.counts - 1) * sides

@@ -1,0 +1,64 @@
+"""A scene's parts as meshes whose faces carry part labels and colours.
+
+Every exporter needs the same two answers: which faces belong to which named
+part, and what colour that part has. A plain part's faces all carry its own
+name and colour; a unioned part (``Mesh.face_part``) keeps the names of the
+parts its faces came from, coloured through ``Scene.colors``. Formats with a
+single mesh (STL, 3MF, OBJ, PLY) take :func:`flatten`, which puts every part
+in world coordinates.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from cadpipe.errors import InputError
+from cadpipe.geometry.mesh import Mesh
+from cadpipe.io.scene import parse_color
+
+#: colour of a part that was given none (a light steel grey)
+DEFAULT_COLOR = (0.70, 0.72, 0.75)
+
+
+class Painted(NamedTuple):
+    """A mesh with a label per face, and a name and colour per label."""
+
+    mesh: Mesh
+    labels: np.ndarray      #: (F,) int index into names
+    names: tuple
+    colors: np.ndarray      #: (L, 3) RGB in [0, 1]
+
+
+def labelled(scene, part, *, world=False):
+    """``part``'s mesh (local, or in world coordinates) as a :class:`Painted`."""
+    mesh = part.world_mesh() if world else part.mesh
+    if len(mesh.faces) == 0:
+        raise InputError(f"part {part.name!r}: it has no triangles to export; "
+                         "leave it out of the scene")
+    own = parse_color(part.color) if part.color is not None else DEFAULT_COLOR
+    if mesh.face_part is None:
+        return Painted(mesh, np.zeros(len(mesh.faces), np.int32), (part.name,), np.array([own]))
+    colors = [parse_color(scene.colors[n]) if n in scene.colors else own
+              for n in mesh.part_names]
+    return Painted(mesh, mesh.face_part, mesh.part_names, np.array(colors).reshape(-1, 3))
+
+
+def flatten(scene):
+    """All parts of ``scene`` as one world-coordinate :class:`Painted` mesh.
+
+    Labels with the same name in different parts merge; the first part's
+    colour for a name wins.
+    """
+    pieces = [labelled(scene, part, world=True) for part in scene.parts]
+    if len(pieces) == 1:
+        return pieces[0]
+    color_of = {}
+    for piece in pieces:
+        for name, rgb in zip(piece.names, piece.colors):
+            color_of.setdefault(name, rgb)
+    index = {name: i for i, name in enumerate(color_of)}
+    offsets = np.cumsum([0] + [len(p.mesh.vertices) for p in pieces[:-1]])
+    mesh = Mesh(np.concatenate([p.mesh.vertices for p in pieces]),
+                np.concatenate([p.mesh.faces + o for p, o in zip(pieces, offsets)]))
+    labels = np.concatenate([np.array([index[n] for n in p.names])[p.labels] for p in pieces])
+    return Painted(mesh, labels, tuple(color_of), np.array(list(color_of.values())))

@@ -1,0 +1,1 @@
+"""Solids from meshes: validity, booleans through manifold3d, primitives, hollow parts, assemblies."""
