@@ -33,22 +33,40 @@ SWEEP_MIN_OBJECTS = 48
 PLACE_CHUNK = 4096
 
 
+def rounding_slack(points):
+    """How far rounding can move a computed bound of ``points`` (N, 3): 1e-9 of their
+    size plus a few units in the last place of their largest coordinate, so a
+    1 um object far from the origin is padded as surely as a 1 m one at it."""
+    points = np.asarray(points, np.float64)
+    return 1e-9 * float(np.ptp(points, axis=0).max(initial=0.0)) \
+        + 64 * np.finfo(float).eps * float(np.abs(points).max(initial=0.0))
+
+
 def fit_obb(points, pad):
     """An oriented box in the points' own frame: ``(centre, axes, half_extents)``.
 
-    ``axes`` holds the box axes as columns. Padding is added to every side.
+    ``axes`` holds the box axes as columns. trimesh's minimum-volume box picks
+    the axes (of the points centred and scaled to unit size, so its hull
+    tolerances suit any size); the extents are the points' own projections on
+    them, widened by :func:`rounding_slack` and the largest ``pad``, so every
+    point lies inside however small the object.
     """
     import trimesh
 
     points = np.asarray(points, np.float64)
-    if len(points) >= 4 and np.linalg.matrix_rank(points - points.mean(axis=0), tol=1e-12) == 3:
-        to_origin, extents = trimesh.bounds.oriented_bounds(points)
-        frame = np.linalg.inv(to_origin)
-        centre, axes = frame[:3, 3], frame[:3, :3]
-    else:                              # flat or tiny point sets: the axis-aligned box
-        lo, hi = points.min(axis=0), points.max(axis=0)
-        centre, axes, extents = 0.5 * (lo + hi), np.eye(3), hi - lo
-    return centre, axes, 0.5 * np.asarray(extents) + float(np.max(pad, initial=0.0))
+    middle = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    size = float(np.ptp(points, axis=0).max(initial=0.0))
+    axes = np.eye(3)
+    if len(points) >= 4 and size > 0:
+        unit = (points - middle) / size
+        if np.linalg.matrix_rank(unit - unit.mean(axis=0), tol=1e-9) == 3:
+            to_origin, _ = trimesh.bounds.oriented_bounds(unit)
+            axes = np.linalg.inv(to_origin)[:3, :3]
+    local = (points - middle) @ axes
+    lo, hi = local.min(axis=0), local.max(axis=0)
+    centre = middle + axes @ (0.5 * (lo + hi))
+    half = 0.5 * (hi - lo) + rounding_slack(points) + float(np.max(pad, initial=0.0))
+    return centre, axes, half
 
 
 def kdop_polytope(points, obb):
@@ -56,20 +74,23 @@ def kdop_polytope(points, obb):
     contains the points' hull with few vertices, so a mesh's world 18-DOP can be
     recomputed from it each pose at a fraction of the hull's cost.
 
-    Every face is dilated by 1e-9 of the size, so rounding in the vertices never
-    leaves part of the hull outside. Falls back to the OBB's corners where qhull
-    cannot build the polytope (flat point sets).
+    Every face is moved out by :func:`rounding_slack`, so rounding in the vertices
+    never leaves part of the hull outside. Falls back to the OBB's corners where
+    qhull cannot build the polytope (flat point sets).
     """
     from scipy.spatial import ConvexHull, HalfspaceIntersection, QhullError
 
     centre, axes, half = obb
     corners = centre + (CORNER_SIGNS * half) @ axes.T
     normals = np.concatenate([KDOP_DIRECTIONS, -KDOP_DIRECTIONS, axes.T, -axes.T])
-    reach = (points @ normals.T).max(axis=0) + 1e-9 * max(float(np.ptp(points)), 1.0)
+    slack = rounding_slack(points)
+    middle = points.mean(axis=0)
+    # qhull works on coordinates about the interior point, scaled to unit size
+    scale = max(float(np.ptp(points, axis=0).max(initial=0.0)), np.finfo(float).tiny)
+    reach = (((points - middle) @ normals.T).max(axis=0) + slack) / scale
     try:
-        vertices = HalfspaceIntersection(np.c_[normals, -reach], points.mean(axis=0))
-        vertices = vertices.intersections
-        return vertices[ConvexHull(vertices).vertices]
+        vertices = HalfspaceIntersection(np.c_[normals, -reach], np.zeros(3)).intersections
+        return middle + scale * vertices[ConvexHull(vertices).vertices]
     except (QhullError, ValueError):
         return corners
 
@@ -127,6 +148,7 @@ class Supports:
         self.centre = np.array([o[0] for o in obbs]).reshape(-1, 3)
         self.axes = np.array([o[1] for o in obbs]).reshape(-1, 3, 3)
         self.half = np.array([o[2] for o in obbs]).reshape(-1, 3)
+        self.slack = np.array([rounding_slack(p) for p, _ in supports]).reshape(-1)
 
     def place(self, ids, rot, shift):
         """Bounds of objects ``ids`` (E,) turned by ``rot`` (E, 3, 3) and moved by
@@ -148,6 +170,10 @@ class Supports:
                 else:
                     low, high = (proj - pad[rows]).min(axis=2), (proj + pad[rows]).max(axis=2)
                 kdop[e, 0], kdop[e, 1] = low + offset[e], high + offset[e]
+        # rounding in the products: the object's own slack plus the move's
+        margin = self.slack[ids] + 64 * np.finfo(float).eps * np.abs(shift).max(axis=1)
+        kdop[:, 0] -= margin[:, None]
+        kdop[:, 1] += margin[:, None]
         centre = (rot @ self.centre[ids][:, :, None])[:, :, 0] + shift
         return kdop, centre, rot @ self.axes[ids]
 
