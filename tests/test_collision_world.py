@@ -50,10 +50,8 @@ def test_same_group_pairs_are_self_collisions_and_come_first():
     report = world.check()
     assert [(a, b, d.phase) for a, b, d in report.collisions] == [
         ("l2", "l3", "self"), ("tool", "obstacle", "world")]
-    assert report.allowed_pairs == [("l1", "l2", "adjacent links")]
-    assert world.allowed_pairs == [("l1", "l2", "adjacent links")]
-    with pytest.warns(DeprecationWarning, match="allowed_pairs"):
-        assert world.allowed() == report.allowed == world.allowed_pairs
+    assert report.allowed == [("l1", "l2", "adjacent links")]
+    assert world.allowed == [("l1", "l2", "adjacent links")]
 
 
 def test_stop_after_self_collision_leaves_the_rest_unchecked():

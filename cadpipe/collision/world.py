@@ -35,13 +35,13 @@ entries in another and hands the narrow phase whole batches per pair.
 """
 
 import operator
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe.errors import InputError
 from cadpipe.solids.transform import is_rigid
 from cadpipe.collision import bounds
@@ -151,11 +151,6 @@ def _counts(codes):
     return {name: int(n) for name, n in zip(STAGES, found) if n}
 
 
-def _deprecated(old, new):
-    warnings.warn(f"{old} is deprecated (one name, one meaning): use {new}", DeprecationWarning,
-                  stacklevel=3)
-
-
 class CollisionReport:
     """The outcome of :meth:`CollisionWorld.check` for one configuration.
 
@@ -200,16 +195,10 @@ class CollisionReport:
         return bool(self.pair_colliding.any())
 
     @property
-    def allowed_pairs(self):
-        """``(name_a, name_b, reason)`` of the pairs skipped as allowed (the same
-        meaning as :attr:`CollisionWorld.allowed_pairs`)."""
-        return list(self.table.allowed_pairs())
-
-    @property
     def allowed(self):
-        """Deprecated name of :attr:`allowed_pairs`."""
-        _deprecated("CollisionReport.allowed", "CollisionReport.allowed_pairs")
-        return self.allowed_pairs
+        """``(name_a, name_b, reason)`` of the pairs skipped as allowed (the same
+        meaning as :attr:`CollisionWorld.allowed`)."""
+        return list(self.table.allowed_pairs())
 
     def counts(self):
         """How many pairs each stage decided."""
@@ -223,7 +212,7 @@ class CollisionReport:
                                for a, b, d in self.collisions],
                 "stopped_after_self": self.stopped_after_self,
                 "counts": self.counts(),
-                "allowed": [{"a": a, "b": b, "reason": r} for a, b, r in self.allowed_pairs],
+                "allowed": [{"a": a, "b": b, "reason": r} for a, b, r in self.allowed],
                 "pairs": [p.to_dict() for p in self.pairs]}
 
 
@@ -363,15 +352,12 @@ class Scene:
         self.layout_version += 1
 
     @property
-    def allowed_pairs(self):
-        """``(name_a, name_b, reason)`` for every allowed pair, in the objects' order."""
-        return [(self._names[i], self._names[j], r) for (i, j), r in sorted(self._allowed.items())]
-
     def allowed(self):
-        """Deprecated: the property :attr:`allowed_pairs` (one meaning for ``allowed``
-        across world and report)."""
-        _deprecated("CollisionWorld.allowed()", "CollisionWorld.allowed_pairs")
-        return self.allowed_pairs
+        """``(name_a, name_b, reason)`` for every allowed pair, in the objects' order
+        (a list, as :attr:`CollisionReport.allowed`)."""
+        return _deprecated.Listing([(self._names[i], self._names[j], r)
+                                    for (i, j), r in sorted(self._allowed.items())],
+                                   "CollisionWorld.allowed")
 
     def add_robot(self, robot, joints=None, transform=None, group=None):
         """Add each link of a :class:`~cadpipe.collision.Robot` with geometry, posed by
