@@ -16,7 +16,7 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_int, as_positive
 from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
-from cadpipe.geometry.frames import FRAME_MODES, as_direction
+from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
@@ -63,7 +63,7 @@ class Pipe:
     sides : int, optional
         Vertices per ring (3 to 4096). Chosen from ``tolerance`` when omitted (16 when
         neither is given); a ``sides`` given wins over ``tolerance``.
-    caps : {"flat", "round"}
+    caps : {"flat", "round"} or (start, end) pair of them
         End caps of an open path; a closed path needs none.
     envelope : bool
         False: ring vertices on the circle (the polygon lies inside the round tube).
@@ -119,7 +119,12 @@ class Pipe:
         set_ = partial(object.__setattr__, self)
         source = self.path if isinstance(self.path, Path) else Path(self.path)
         radius = as_positive(self.radius, "radius", count=len(source))
-        set_("caps", as_choice(self.caps, "caps", CAP_STYLES))
+        caps = self.caps if isinstance(self.caps, str) else tuple(self.caps)
+        if isinstance(caps, tuple) and len(caps) != 2:
+            raise InputError(f"expected 'flat', 'round' or a (start, end) pair, got {caps!r}",
+                             key="caps")
+        set_("caps", as_choice(caps, "caps", CAP_STYLES) if isinstance(caps, str) else
+             tuple(as_choice(c, "caps", CAP_STYLES) for c in caps))
         set_("frame", as_choice(self.frame, "frame", FRAME_MODES))
         set_("corners", as_choice(self.corners, "corners", CORNER_STYLES))
         set_("envelope", bool(self.envelope))
@@ -127,6 +132,10 @@ class Pipe:
         for name in ("normal", "end_normal"):
             value = getattr(self, name)
             set_(name, None if value is None else tuple(as_direction(value, name).tolist()))
+        if self.envelope and self.frame == "patent":
+            raise InputError("envelope=True needs the rotation-minimizing frame: the patent "
+                             "frame twists the rings, and a twisted tube sags between them; "
+                             "use frame='rmf'", key="frame")
         if self.end_normal is not None and source.closed:
             raise InputError("a closed path has no end: its last ring meets its first; "
                              "give only normal", key="end_normal")
@@ -198,10 +207,51 @@ class Pipe:
     def closed(self):
         return self.path.closed
 
-    @property
-    def ring_radii(self):
-        """(N,) distance of ring vertices from the axis (radius, or circumradius)."""
-        return self.radii * envelope_factor(self.sides) if self.envelope else self.radii
+    @cached_property
+    def cap_styles(self) -> tuple[str, str]:
+        """``caps`` as a (start, end) pair."""
+        return (self.caps, self.caps) if isinstance(self.caps, str) else self.caps
+
+    @cached_property
+    def ring_radii(self) -> np.ndarray:
+        """(N,) distance of ring vertices from the axis (before miter stretch).
+
+        The radius itself, or with ``envelope=True`` the circumradius of the polygon
+        whose sides touch a circle ``1 / cos(a)`` larger than the radius, ``a`` the
+        steeper taper of the segments beside the ring (``sin a = |dr| / length``): the
+        round cone a tapered segment's balls sweep is that much wider than the circle
+        of the ball at its end.
+        """
+        if not self.envelope:
+            return self.radii
+        r = self.radii
+        lengths = self.path.segment_lengths
+        ahead = np.roll(r, -1)[:len(lengths)]
+        sine = np.minimum(np.abs(ahead - r[:len(lengths)]) / lengths, 1.0 - 1e-9)
+        slope = 1.0 / np.sqrt(1.0 - sine ** 2)
+        before = np.roll(slope, 1) if self.closed else np.concatenate([slope[:1], slope])
+        after = slope if self.closed else np.concatenate([slope, slope[-1:]])
+        return _frozen(r * envelope_factor(self.sides) * np.maximum(before, after)
+                       / np.cos(self._twist_bound / 2))
+
+    @cached_property
+    def _twist_bound(self) -> float:
+        """Most twist between neighbouring rings (radians): an end normal's is held to :data:`~cadpipe.geometry.frames.MAX_TWIST_STEP`, a loop's
+        holonomy spreads at most ``pi / sides`` by arc length. A band twisted by ``d``
+        sags to ``cos(d / 2)`` of its radius, which an envelope makes up for."""
+        if self.end_normal is not None:
+            return MAX_TWIST_STEP
+        if self.closed:
+            return np.pi / self.sides * float(self.path.segment_lengths.max()) / self.path.length
+        return 0.0
+
+    @cached_property
+    def cap_reach(self) -> tuple[float, float]:
+        """How far the solid reaches past the path's first and last point, along it."""
+        if self.closed:
+            return (0.0, 0.0)
+        return tuple(_cap_reach(self, style, sign)
+                     for style, sign in zip(self.cap_styles, (-1, 1)))
 
     @cached_property
     def _tubes(self):
@@ -249,7 +299,7 @@ class Pipe:
         """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
         return _deprecated.Attributes({"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
                 "radius_max": float(self.radii.max()), "path_length": self.path.length,
-                "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
+                "path_points": len(self.path), "closed": self.closed, "caps": "/".join(dict.fromkeys(self.cap_styles)),
                 "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
                                       "Pipe.attributes")
 
@@ -317,11 +367,14 @@ class Pipe:
         nxt = (cur + 1) % len(rings)
         shift = overlap * self.path.directions[:, None, :]
         pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
-        if not self.closed and self.caps == "round":
-            for row, sign in ((0, -1), (len(rings) - 1, 1)):
-                axes, pole = cap_axes(self._tubes, row, sign, self)
-                cap = np.matmul(ring_basis(self.sides), axes).reshape(-1, 3)
-                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
+        if not self.closed:
+            for row, sign, style in ((0, -1, self.cap_styles[0]),
+                                     (len(rings) - 1, 1, self.cap_styles[1])):
+                cap = cap_axes(self._tubes, row, sign, self, style)
+                if cap is not None:
+                    cap_rings = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
+                    pole = np.empty((0, 3)) if cap[1] is None else cap[1][None]
+                    pieces.append(np.concatenate([rings[row], cap_rings, pole]))
         return pieces
 
     def _repaired_mesh(self):
@@ -345,19 +398,55 @@ def tubes_of(pipes):
                  gentle=True)
 
 
-def cap_axes(tubes, row, sign, pipe):
-    """A round cap's latitude rings past the end ring at ``row`` (outward from the
-    tube, along ``sign`` times the tangent) as ring axes and centres (see
-    :func:`~cadpipe.geometry.rings.ring_basis`), and its pole."""
-    m = pipe.cap_steps
-    lat = (np.pi / 2) * np.arange(1, m) / m
-    scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
-    centre = tubes.lines.xyz[:, row]
-    rise = tubes.ring_radii[row] * scale * sign * tubes.lines.tangents[:, row]
-    axes = np.empty((m - 1, 3, 3))
-    axes[:, :2] = (scale * np.cos(lat))[:, None, None] * tubes.axes[row, :2]
-    axes[:, 2] = centre + np.sin(lat)[:, None] * rise
-    return axes, centre + rise
+def cap_axes(tubes, row, sign, pipe, style):
+    """The cap past the end ring at ``row`` (outward along ``sign`` times the tangent):
+    its rings as axes and centres (see :func:`~cadpipe.geometry.rings.ring_basis`) and
+    its pole (None: a flat fan closes the last ring); None for a plain flat cap.
+
+    A round cap's rings lie on the sphere of the end ring's radius; with
+    ``envelope=True`` its faces are instead tangent to the sphere of the ball it must
+    hold (the end ring's inradius ``rho``): in each meridian the cap is the polygon
+    circumscribing that circle with sides tangent at ``0, D, 2D, ...`` and a vertex on
+    the axis, ``D = pi / (2m - 1)``, so ring ``j`` sits at angle ``(j - 1/2) D`` and
+    distance ``rho / cos(D/2)``. An envelope's flat cap lies ``r`` past the end.
+    """
+    centre, tangent = tubes.lines.xyz[:, row], sign * tubes.lines.tangents[:, row]
+    ring = tubes.axes[row]
+    if style == "flat":
+        if not pipe.envelope:
+            return None
+        axes = ring[None].copy()
+        axes[0, 2] = centre + _end_radius(pipe, sign) * tangent
+        return axes, None
+    radius = tubes.ring_radii[row]
+    if pipe.envelope:
+        m = max(2, pipe.cap_steps)
+        step = np.pi / (2 * m - 1)
+        lat = (np.arange(1, m) - 0.5) * step
+        scale = np.cos(lat) / np.cos(step / 2)
+        rise = np.sin(lat) / np.cos(step / 2) * radius * np.cos(np.pi / pipe.sides)
+        pole = radius * np.cos(np.pi / pipe.sides) / np.cos(step / 2)
+    else:
+        m = pipe.cap_steps
+        lat = (np.pi / 2) * np.arange(1, m) / m
+        scale, rise, pole = np.cos(lat), np.sin(lat) * radius, radius
+    axes = np.empty((len(lat), 3, 3))
+    axes[:, :2] = scale[:, None, None] * ring[:2]
+    axes[:, 2] = centre + rise[:, None] * tangent
+    return axes, centre + pole * tangent
+
+
+def _cap_reach(pipe, style, sign):
+    cap = cap_axes(pipe._tubes, 0 if sign < 0 else len(pipe.path) - 1, sign, pipe, style)
+    if cap is None:
+        return 0.0
+    end = pipe.path.points[0 if sign < 0 else -1]
+    tip = cap[0][-1, 2] if cap[1] is None else cap[1]
+    return float(np.linalg.norm(tip - end))
+
+
+def _end_radius(pipe, sign):
+    return float(pipe.radii[0 if sign < 0 else -1])
 
 
 def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
@@ -375,9 +464,9 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
     for g in capped:
         pipe = pipes[g]
-        round_caps = pipe.caps == "round"
-        start = cap_axes(tubes, firsts[g], -1, pipe) if cap_start[g] and round_caps else None
-        end = cap_axes(tubes, lasts[g], +1, pipe) if cap_end[g] and round_caps else None
+        styles = pipe.cap_styles
+        start = cap_axes(tubes, firsts[g], -1, pipe, styles[0]) if cap_start[g] else None
+        end = cap_axes(tubes, lasts[g], +1, pipe, styles[1]) if cap_end[g] else None
         if start is not None or end is not None:
             run = runs[g]
             runs[g] = np.concatenate([run[:0] if start is None else start[0][::-1], run,
@@ -393,9 +482,9 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
                 (cap_end[g], caps[g][1], int(first[g]) + (len(runs[g]) - 1) * n, True)):
             if not wanted:
                 continue
-            apex = None if cap is None else surface.add_vertices(
+            apex = None if cap is None or cap[1] is None else surface.add_vertices(
                 1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
-            surface.add_faces(n if cap is not None else n - 2, partial(
+            surface.add_faces(n if apex is not None else n - 2, partial(
                 write_fan, ring, n, apex, at_end), part)
     ring0 = first + rings_before * sides
     return ring0, ring0 + (groups.counts - 1) * sides
