@@ -228,6 +228,15 @@ class Chain:
             edges = np.stack([i, (i + 1) % n], axis=1)
         return cls(points, np.broadcast_to(np.asarray(radii, np.float64), (n,)).copy(), edges)
 
+    @classmethod
+    def of_units(cls, starts, ends, start_radii, end_radii):
+        """Units given by their own end balls (``(U, 3)`` points, ``(U,)`` radii), e.g.
+        :meth:`cadpipe.Pipe.collision_units`."""
+        count = len(starts)
+        edges = np.stack([np.arange(count), count + np.arange(count)], axis=1)
+        return cls(np.concatenate([starts, ends]), np.concatenate([start_radii, end_radii]),
+                   edges)
+
     def moved(self, matrix):
         """The chain moved by a rigid 4x4 matrix."""
         return Chain(self.centers @ matrix[:3, :3].T + matrix[:3, 3], self.radii, self.edges)

@@ -7,6 +7,7 @@ pipes is built from the same rings the pipes themselves use.
 """
 
 import dataclasses
+import warnings
 from dataclasses import KW_ONLY, dataclass
 from functools import cached_property, partial
 
@@ -39,6 +40,17 @@ def _frozen(values):
     out = np.array(values, dtype=np.float64)
     out.flags.writeable = False
     return out
+
+
+def _filleted_radii(path, bend, radii, filleted):
+    """``radii`` carried onto ``filleted = path.filleted(bend)``: per source point, or,
+    where arcs that consume a segment made the filleted path drop repeated points
+    (0.1 raised a numpy broadcast error there), by arc-length fraction."""
+    source = path.fillet_sources(bend)
+    if len(source) == len(filleted):
+        return radii[source]
+    along = filleted.arc_length / filleted.length * path.length
+    return np.interp(along, path.arc_length, radii)
 
 
 def envelope_factor(sides):
@@ -86,7 +98,9 @@ class Pipe:
         Polyline corners as miter joints (the rings meet in the bisector plane), or
         ball joints: the outside of each corner is the sphere of the corner's radius
         about the corner point, so the corner point keeps the full radius and no miter
-        tip sticks out.
+        tip sticks out (the path itself is not rounded). Gentle corners, and every
+        corner of an ``envelope=True`` pipe, keep their miter joint, which holds the
+        corner's ball too.
     bend_radius : float, optional
         Deprecated: rounds the path itself with arcs of this radius (the pipe then
         follows :meth:`Path.fillet`'s path); pass ``path.fillet(bend_radius)[0]``.
@@ -163,14 +177,16 @@ class Pipe:
             raise InputError(f"{radii.min():g} is too small for this path, whose points "
                              f"closer than {source._tolerance:g} count as one; use a larger "
                              "radius", key="radius")
-        set_("_given_path", source)
-        if self.corners == "round":
-            bend = 2.0 * float(radii.max()) if self.bend_radius is None else self.bend_radius
-            set_("bend_radius", float(as_positive(bend, "bend_radius")))
-            radii = radii[source.fillet_sources(self.bend_radius)]
-            source = source.filleted(self.bend_radius)
-        else:
+        if self.bend_radius is not None:
+            warnings.warn("Pipe(bend_radius=...) rounds the path itself and is deprecated: "
+                          "pass path.filleted(bend_radius) (corners='round' is now a ball "
+                          "joint at each corner of the path as given)", DeprecationWarning,
+                          stacklevel=3)
+            bend = float(as_positive(self.bend_radius, "bend_radius"))
+            filleted = source.filleted(bend)
+            radii, source = _filleted_radii(source, bend, radii, filleted), filleted
             set_("bend_radius", None)
+            set_("corners", "miter")
         set_("path", source)
         set_("radius", _frozen(radii) if radius.ndim else float(radius))
 
@@ -179,8 +195,6 @@ class Pipe:
         is chosen again unless given)."""
         if self._sides_from_tolerance and "sides" not in changes:
             changes["sides"] = None
-        if self.corners == "round" and "path" not in changes:
-            changes["path"] = self._given_path
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
@@ -363,10 +377,15 @@ class Pipe:
         apart).
         """
         rings = self.rings()
+        arriving, leaving, pieces = rings.copy(), rings.copy(), []
+        for row in np.flatnonzero(joint_rows_of(self._tubes, 0, len(rings) - 1, self)):
+            joint = _joint(self._tubes, row, self)[1]
+            arriving[row], leaving[row] = joint[0], joint[-1]
+            pieces.append(joint.reshape(-1, 3))
         cur = np.arange(len(self.path.segments))
         nxt = (cur + 1) % len(rings)
         shift = overlap * self.path.directions[:, None, :]
-        pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
+        pieces += list(np.concatenate([leaving[cur] - shift, arriving[nxt] + shift], axis=1))
         if not self.closed:
             for row, sign, style in ((0, -1, self.cap_styles[0]),
                                      (len(rings) - 1, 1, self.cap_styles[1])):
@@ -376,6 +395,62 @@ class Pipe:
                     pole = np.empty((0, 3)) if cap[1] is None else cap[1][None]
                     pieces.append(np.concatenate([rings[row], cap_rings, pole]))
         return pieces
+
+    def collision_units(self):
+        """Round cones whose union contains this pipe's mesh: the collision model.
+
+        Per segment, the cone between the balls at its two points, widened by the taper
+        over the miter setbacks; per mitered corner, a capsule from the corner point
+        towards the miter tip (the ring there is an ellipse stretched along the outer
+        bend direction, and the capsule of the ring radius along that semi-axis, minus
+        the radius, holds it); per envelope cap, a ball or capsule reaching the cap's
+        far face. Each unit's axis lies inside the mesh, so the chain exceeds the mesh
+        by at most its largest unit radius (the ring radius, or up to
+        ``1 / cos(pi / (2 (2m - 1)))`` of it at an envelope's round caps).
+
+        Returns
+        -------
+        starts, ends : (U, 3) float
+        start_radii, end_radii : (U,) float
+        """
+        path, rho = self.path, self.ring_radii
+        n = len(path)
+        i = np.arange(len(path.segments))
+        j = (i + 1) % n
+        setback = rho * np.tan(np.minimum(path.turning_angles, np.pi - 1e-9) / 2)
+        taper = np.abs(rho[j] - rho[i]) / path.segment_lengths
+        starts, ends = [path.points[i]], [path.points[j]]
+        start_r, end_r = [rho[i] + 2 * taper * setback[i]], [rho[j] + 2 * taper * setback[j]]
+        corner = np.flatnonzero((self.miter_stretch > 1 + 1e-12)
+                                & ~joint_rows_of(self._tubes, 0, n - 1, self))
+        if corner.size:
+            outward = -path.bend_directions[corner]
+            starts.append(path.points[corner])
+            ends.append(path.points[corner] + ((self.miter_stretch[corner] - 1)
+                                               * rho[corner])[:, None] * outward)
+            start_r.append(rho[corner])
+            end_r.append(rho[corner])
+        if not self.closed:
+            for row, sign, style in ((0, -1, self.cap_styles[0]), (n - 1, 1, self.cap_styles[1])):
+                cap = cap_axes(self._tubes, row, sign, self, style)
+                if cap is None or (style == "round" and not self.envelope):
+                    continue                    # within the end ball already
+                end = path.points[row]
+                if style == "flat":
+                    far = cap[0][0, 2]
+                    starts.append(end[None])
+                    ends.append(far[None])
+                    start_r.append(rho[row:row + 1])
+                    end_r.append(rho[row:row + 1])
+                else:
+                    vertices = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
+                    reach = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
+                    starts.append(end[None])
+                    ends.append(end[None])
+                    start_r.append([max(reach, rho[row])])
+                    end_r.append([max(reach, rho[row])])
+        return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
+                np.concatenate(end_r))
 
     def _repaired_mesh(self):
         """Union of the convex units through manifold3d: valid even where the tube folds."""
@@ -391,7 +466,8 @@ def tubes_of(pipes):
     """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes` batch."""
     return Tubes(polylines([p.path for p in pipes]),
                  np.concatenate([p.ring_radii for p in pipes]),
-                 [p.sides for p in pipes], [p.miter_limit for p in pipes],
+                 [p.sides for p in pipes],
+                 [p.miter_limit if p.corners == "miter" else np.inf for p in pipes],
                  patent=[p.frame == "patent" for p in pipes],
                  normals=np.array([as_direction(p.normal, "normal") for p in pipes]),
                  end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]),
@@ -473,18 +549,132 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
                                       run[:0] if end is None else end[0]])
             rings_before[g] = 0 if start is None else len(start[0])
         caps[g] = (start, end)
-    first = surface.add_rings(runs, sides, parts, closed=groups.closed,
-                              seam_shift=tubes.seam_shift)
+    jointed = {}
+    for g, pipe in enumerate(pipes):
+        rows = firsts[g] + np.flatnonzero(joint_rows_of(tubes, firsts[g], lasts[g], pipe))
+        if rows.size:
+            jointed[g] = {int(r - firsts[g] + rings_before[g]): int(r) for r in rows}
+    plain = [g for g in range(len(pipes)) if g not in jointed]
+    row_start = [None] * len(pipes)
+    if plain:
+        starts = surface.add_rings([runs[g] for g in plain], sides[plain],
+                                   None if parts is None else np.asarray(parts)[plain],
+                                   closed=groups.closed[plain],
+                                   seam_shift=tubes.seam_shift[plain])
+        for g, start in zip(plain, starts.tolist()):
+            row_start[g] = start + int(sides[g]) * np.arange(len(runs[g]))
+    for g, rows in jointed.items():
+        row_start[g] = _add_jointed_run(surface, tubes, pipes[g], runs[g], rows,
+                                        bool(groups.closed[g]), int(tubes.seam_shift[g]),
+                                        None if parts is None else int(parts[g]))
     for g in capped:
         n, part = int(sides[g]), None if parts is None else int(parts[g])
         for wanted, cap, ring, at_end in (
-                (cap_start[g], caps[g][0], int(first[g]), False),
-                (cap_end[g], caps[g][1], int(first[g]) + (len(runs[g]) - 1) * n, True)):
+                (cap_start[g], caps[g][0], int(row_start[g][0]), False),
+                (cap_end[g], caps[g][1], int(row_start[g][-1]), True)):
             if not wanted:
                 continue
             apex = None if cap is None or cap[1] is None else surface.add_vertices(
                 1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
             surface.add_faces(n if apex is not None else n - 2, partial(
                 write_fan, ring, n, apex, at_end), part)
-    ring0 = first + rings_before * sides
-    return ring0, ring0 + (groups.counts - 1) * sides
+    own = [rs[b:b + int(c)] for rs, b, c in zip(row_start, rings_before.tolist(),
+                                                 groups.counts.tolist())]
+    return np.array([o[0] for o in own]), np.array([o[-1] for o in own])
+
+# -- ball joints (corners="round") -------------------------------------------------
+def joint_rows_of(tubes, first, last, pipe):
+    """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) get a ball
+    joint: with ``corners="round"`` (and no envelope: a joint's faces beside the bend
+    axis fan from one unswept vertex and cut across the ball, so an envelope keeps
+    its miter joints, which hold every ball on the path), the corners whose miter tip would stick out farther than the ring polygon's own
+    chordal deviation, ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep
+    their miter, which already holds the corner's ball."""
+    if pipe.corners != "round" or pipe.envelope:
+        return np.zeros(last - first + 1, bool)
+    return tubes.miter_stretch[first:last + 1] - 1.0 > 1.0 - np.cos(np.pi / pipe.sides)
+
+
+def _rotate(v, axis, angle):
+    """Rodrigues: (..., 3) vectors ``v`` turned by ``angle`` about the unit ``axis``."""
+    c, s = np.cos(angle), np.sin(angle)
+    return v * c + np.cross(axis, v) * s + np.outer(v @ axis, axis) * (1 - c)
+
+
+def _joint(tubes, row, pipe):
+    """A ball joint at corner ``row``: the rings that sweep the corner's ring about the
+    bend axis through the corner point, from the plane across the incoming segment to
+    the plane across the outgoing one.
+
+    Only the outside of the bend sweeps (the sphere of the ring radius about the
+    corner point, as a ball joint has); the inside keeps the miter ring's vertices,
+    where the two segments' cylinders meet.
+
+    Returns ``(outer, rings)``: the (sides,) bool mask of swept vertices and the
+    (K, sides, 3) ring vertices (inner vertices repeated; they are one vertex).
+    """
+    lines = tubes.lines
+    n = pipe.sides
+    centre = lines.xyz[:, row]
+    d_in, d_out = lines.incoming[:, row], lines.directions[:, row]
+    turn = float(lines.turning_angles[row])
+    axis = np.cross(d_in, d_out)
+    axis /= np.linalg.norm(axis)
+    miter = ring_basis(n) @ tubes.axes[row]
+    outer = (miter - centre) @ lines.bend_directions[:, row] < 0
+    radius = tubes.ring_radii[row]
+    normal = tubes.normals[:, row]
+    binormal = np.cross(lines.tangents[:, row], normal)
+    a = 2 * np.pi * np.arange(n) / n
+    offsets = radius * (np.cos(a)[:, None] * _rotate(normal[None], axis, -turn / 2)
+                        + np.sin(a)[:, None] * _rotate(binormal[None], axis, -turn / 2))
+    steps = max(1, int(np.ceil(turn / (np.pi / 2) * pipe.cap_steps)))
+    angles = turn * np.arange(steps + 1) / steps
+    along = np.outer(offsets @ axis, axis)
+    rings = np.empty((len(angles), n, 3))
+    for k, angle in enumerate(angles.tolist()):
+        rings[k] = centre + along + _rotate(offsets - along, axis, angle)
+    rings[:, ~outer] = miter[~outer]
+    return outer, rings
+
+
+def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
+    """Lay out a run of rings (axes, as :meth:`Surface.add_rings` takes them) whose
+    ``rows`` (index in ``run`` -> tube row) get ball joints: every ring a row of vertex
+    indices (a joint's inner vertices shared by its rings), faces between every two
+    rows as for plain rings, those made degenerate by a shared vertex dropped.
+
+    Returns the vertex index of each run row's first ring.
+    """
+    n, basis = pipe.sides, ring_basis(pipe.sides)
+    first = surface.vertex_count
+    blocks, table, row_start, count = [], [], np.empty(len(run), np.int64), 0
+    for r, axes in enumerate(run):
+        if r in rows:
+            outer, rings = _joint(tubes, rows[r], pipe)
+            extra = rings[1:, outer].reshape(-1, 3)
+            ids = np.empty((len(rings), n), np.int64)
+            ids[:] = first + count + np.arange(n)
+            ids[1:, outer] = (first + count + n + np.arange(len(extra))).reshape(
+                len(rings) - 1, -1)
+            blocks += [rings[0], extra]
+        else:
+            ids = (first + count + np.arange(n))[None]
+            blocks.append(basis @ axes)
+        row_start[r] = ids[0, 0]
+        count += sum(len(b) for b in blocks[-2 if r in rows else -1:])
+        table.append(ids)
+    vertices = np.concatenate(blocks)
+    table = np.concatenate(table)
+    upper, lower = table[:-1], table[1:]
+    if closed:
+        upper = np.vstack([upper, table[-1:]])
+        lower = np.vstack([lower, np.roll(table[:1], -seam_shift, axis=1)])
+    a, b = upper, np.roll(upper, -1, axis=1)
+    c, d = lower, np.roll(lower, -1, axis=1)
+    faces = np.stack([np.stack([a, b, c], -1), np.stack([b, d, c], -1)], axis=2).reshape(-1, 3)
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+                  & (faces[:, 0] != faces[:, 2])]
+    surface.add_vertices(len(vertices), lambda out: np.copyto(out, vertices))
+    surface.add_faces(len(faces), lambda out: np.copyto(out, faces), part)
+    return row_start
