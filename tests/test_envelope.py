@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import HollowPipe, Junction, Pipe
+from cadpipe.collision.bodies import as_body
 
 
 def winding(mesh, points):
@@ -192,6 +193,8 @@ def test_every_frame_corner_and_cap_option_builds_a_valid_conservative_solid():
         assert mesh.is_watertight and mesh.is_oriented and mesh.volume > 0
         solid = mesh.to_manifold()
         assert solid.volume() == pytest.approx(mesh.volume, rel=1e-6)
+        chain = as_body(pipe, "pipe").chain                      # the collision model
+        assert chain.signed_distance(mesh.vertices).max() <= 1e-9
         if opts["envelope"]:
             rng = np.random.default_rng(0)
             assert len(uncovered(pipe, rng, count=16)) == 0
