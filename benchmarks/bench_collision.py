@@ -466,13 +466,10 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--only", choices=("panda", "arm", "pipes"))
     args = parser.parse_args()
-    if args.only in (None, "panda"):
-        panda(args.configs, args.repeat)
-    if args.only not in (None, "arm"):
-        return
-    robot_cell(args.configs, args.repeat)
-    pipe_pair(args.configs, args.repeat)
-
+    parts = {"panda": panda, "arm": robot_cell, "pipes": pipe_pair}
+    for name, part in parts.items():
+        if args.only in (None, name):
+            part(args.configs, args.repeat)
 
 if __name__ == "__main__":
     main()

