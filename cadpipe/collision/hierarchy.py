@@ -35,6 +35,7 @@ import numba
 import numpy as np
 
 from cadpipe.collision.capsules import inverse, unit_pair_gap
+from cadpipe.geometry.ragged import Groups
 
 #: poses per call of the compiled walk (bounds the buffer of leaf pairs left over)
 CHUNK = 4096
@@ -56,18 +57,14 @@ class CapsuleTree:
         count = len(edges)
         self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
         size = 2 ** (self.depth + 1) - 1
-        first, last = np.zeros(size, np.int64), np.zeros(size, np.int64)
-        for d in range(self.depth + 1):
-            j = np.arange(2 ** d)
-            first[2 ** d - 1 + j] = j * count // 2 ** d
-            last[2 ** d - 1 + j] = (j + 1) * count // 2 ** d
+        first, last = _heap_runs(count, self.depth)
         full = np.flatnonzero(last > first)
         lo, hi = first[full], last[full]
-        # every unit of every node, node after node, for per-node extremes by reduceat
-        runs = hi - lo
-        offsets = np.r_[0, np.cumsum(runs)[:-1]]
-        units = np.repeat(lo - offsets, runs) + np.arange(runs.sum())
-        owner = np.repeat(np.arange(len(full)), runs)
+        # every unit of every non-empty node, node after node (ragged rows), so per-node
+        # extremes are one reduceat over them
+        members = Groups(hi - lo)
+        runs, offsets, owner = members.counts, members.first, members.index
+        units = lo[owner] + members.local()
         start = chain.centers[edges[lo, 0]]
         d = chain.centers[edges[hi - 1, 1]] - start
         inv = inverse(np.einsum("ij,ij->i", d, d))
@@ -115,6 +112,19 @@ class CapsuleTree:
         self.chord = self.points[self.p1] - self.start
         self.chord_sq = np.einsum("ij,ij->i", self.chord, self.chord)
         self.inv_chord_sq = inverse(self.chord_sq)
+
+
+def _heap_runs(count, depth):
+    """``(first, last)`` units of every node of a perfect tree of ``depth`` over
+    ``count`` units, in heap order: node ``2**d - 1 + j`` (the ``j``-th at depth
+    ``d``) covers units ``j * count // 2**d`` up to ``(j + 1) * count // 2**d``
+    (empty where they are equal)."""
+    first, last = [], []
+    for d in range(depth + 1):
+        j = np.arange(2 ** d)
+        first.append(j * count // 2 ** d)
+        last.append((j + 1) * count // 2 ** d)
+    return np.concatenate(first), np.concatenate(last)
 
 
 def chain_gaps(chain_a, chain_b, poses, stop_below=None):
