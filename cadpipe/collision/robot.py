@@ -144,19 +144,16 @@ class Robot:
 
         Every joint's local transform is built at once (Rodrigues' formula,
         ``origin @ (I + sin K + (1 - cos) K^2)``, with the products by the origin
-        precomputed); then one stacked matrix product per joint walks down the
-        tree, for all configurations together.
+        precomputed), then multiplied down the tree, in one compiled call for all
+        configurations (:func:`cadpipe.collision.kinematics.chain_poses`).
         """
-        q = self.joint_array(configurations)
+        from cadpipe.collision.kinematics import chain_poses
+
         k = self._kinematics
-        angle, shift = (q * k["revolute"])[..., None, None], (q * k["prismatic"])[..., None, None]
-        local = (k["origin"] + np.sin(angle) * k["turn"] + (1.0 - np.cos(angle)) * k["turn2"]
-                 + shift * k["slide"])
-        poses = np.empty((len(q), len(k["links"]), 4, 4))
-        poses[:, 0] = np.eye(4) if base is None else base
-        for step, (parent, child) in enumerate(k["edges"]):
-            np.matmul(poses[:, parent], local[:, step], out=poses[:, child])
-        return poses[:, k["geometry"]]
+        return chain_poses(self.joint_array(configurations), k["origin"], k["turn"], k["turn2"],
+                           k["slide"], k["revolute"], k["prismatic"], k["parent"], k["child"],
+                           _EYE if base is None else np.asarray(base, np.float64),
+                           k["geometry_index"])
 
     def link_poses_at(self, joints=None, base=None):
         """``(L, 4, 4)`` world poses of the links with geometry at one configuration
@@ -224,7 +221,14 @@ def _kinematics(joints, base, geometry):
             "upper": np.array([joints[k].upper for k in actuated]),
             "mimics": [(k, position[j.mimic[0]], j.mimic[1], j.mimic[2])
                        for k, j in enumerate(joints) if j.mimic is not None],
-            "geometry": [index[link] for link in geometry]}
+            "geometry": [index[link] for link in geometry],
+            # the same as arrays, for the compiled walk (cadpipe.collision.kinematics)
+            "parent": np.array([index[j.parent] for j in joints], np.int64),
+            "child": np.array([index[j.child] for j in joints], np.int64),
+            "geometry_index": np.array([index[link] for link in geometry], np.int64)}
+
+
+_EYE = np.eye(4)
 
 
 def _joint(j):
