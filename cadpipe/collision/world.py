@@ -69,14 +69,14 @@ def as_poses(transforms, name, shape=None):
     try:
         m = np.array(transforms, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: transform must be a 4x4 matrix of numbers") from None
+        raise InputError("transform must be a 4x4 matrix of numbers", part=name) from None
     if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
-        raise InputError(f"{name}: transform must be a 4x4 matrix, got shape {m.shape}")
+        raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
     if not np.isfinite(m).all():
-        raise InputError(f"{name}: transform has NaN or infinite entries; pass a finite matrix")
+        raise InputError("transform has NaN or infinite entries; pass a finite matrix", part=name)
     if not is_rigid(m):
-        raise InputError(f"{name}: transform must be rigid (a rotation and a translation); "
-                         "scale or mirror the mesh itself instead")
+        raise InputError("transform must be rigid (a rotation and a translation); "
+                         "scale or mirror the mesh itself instead", part=name)
     return m
 
 
@@ -246,8 +246,8 @@ class CollisionWorld:
         if not isinstance(name, str) or not name:
             raise InputError(f"object name must be a non-empty string, got {name!r}")
         if name in self._index:
-            raise InputError(f"{name}: an object of that name is already in the world; "
-                             "use set_pose() to move it or pick another name")
+            raise InputError("an object of that name is already in the world; "
+                             "use set_pose() to move it or pick another name", part=name)
         pose = as_pose(transform, name)
         body = as_body(obj, name)
         self._index[name] = len(self._names)

@@ -68,11 +68,11 @@ class Mesh:
         if faces.size == 0:
             faces = faces.reshape(0, 3)
         if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
-            raise InputError(f"faces: expected an (F, 3) array of vertex indices, got "
-                             f"shape {faces.shape} of {faces.dtype}")
+            raise InputError("expected an (F, 3) array of vertex indices, got "
+                             f"shape {faces.shape} of {faces.dtype}", key="faces")
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise InputError(f"faces: indices must lie in [0, {len(vertices) - 1}], "
-                             f"got [{faces.min()}, {faces.max()}]")
+            raise InputError(f"indices must lie in [0, {len(vertices) - 1}], "
+                             f"got [{faces.min()}, {faces.max()}]", key="faces")
         self._vertices = _frozen(vertices, np.float64)
         self._faces = _frozen(faces, np.int64)
         self._part_names = tuple(str(n) for n in part_names)
@@ -81,11 +81,11 @@ class Mesh:
         else:
             face_part = np.asarray(face_part)
             if face_part.shape != (len(faces),):
-                raise InputError(f"face_part: expected {len(faces)} part indices, "
-                                 f"got shape {face_part.shape}")
+                raise InputError(f"expected {len(faces)} part indices, "
+                                 f"got shape {face_part.shape}", key="face_part")
             names = len(self._part_names)
             if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
-                raise InputError("face_part: indices must point into part_names")
+                raise InputError("indices must point into part_names", key="face_part")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
@@ -259,11 +259,11 @@ class Mesh:
     def require_solid(self, name="mesh"):
         """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
         if not self.is_watertight:
-            raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
-                            "close the holes or repair it before using it as a solid")
+            raise MeshError("not a closed solid (open or non-manifold edges); "
+                            "close the holes or repair it before using it as a solid", part=name)
         if self.volume <= 0:
-            raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
-                            "flip its faces")
+            raise MeshError(f"faces point inward (volume {self.volume:.6g}); "
+                            "flip its faces", part=name)
         return self
 
     # -- transforms -----------------------------------------------------------
@@ -271,7 +271,7 @@ class Mesh:
         """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors)."""
         matrix = np.asarray(matrix, dtype=np.float64)
         if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {matrix.shape}")
+            raise InputError(f"expected a finite 4x4 matrix, got shape {matrix.shape}", key="transform")
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
         return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
@@ -316,8 +316,8 @@ class Mesh:
         solid = manifold3d.Manifold(mesh)
         status = solid.status()
         if status != manifold3d.Error.NoError:
-            raise MeshError(f"{name}: manifold3d rejected the mesh ({status.name}); "
-                            "it must be a closed, oriented 2-manifold")
+            raise MeshError(f"manifold3d rejected the mesh ({status.name}); "
+                            "it must be a closed, oriented 2-manifold", part=name)
         return solid
 
     @classmethod

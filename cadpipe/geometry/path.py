@@ -49,8 +49,8 @@ class Path:
             pts, xyz = pts[:-1], xyz[:, :-1]
         need = 3 if closed else 2
         if len(pts) < need:
-            raise InputError(f"points: a{' closed' if closed else 'n open'} path needs at least "
-                             f"{need} distinct points, got {len(pts)} after dropping duplicates")
+            raise InputError(f"a{' closed' if closed else 'n open'} path needs at least "
+                             f"{need} distinct points, got {len(pts)} after dropping duplicates", key="points")
         pts = np.array(pts)                       # our own copy, frozen
         pts.flags.writeable = False
         self._points = pts
@@ -212,7 +212,7 @@ class Path:
         """The path moved by a 4x4 homogeneous matrix."""
         m = np.asarray(matrix, dtype=np.float64)
         if m.shape != (4, 4) or not np.isfinite(m).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {m.shape}")
+            raise InputError(f"expected a finite 4x4 matrix, got shape {m.shape}", key="transform")
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
@@ -367,5 +367,5 @@ class Polylines:
         if folds.size:
             i = folds[0]
             local = i - self.groups.first[self.groups.index[i]]
-            raise GeometryError(f"points: the path folds back on itself at point {local} "
-                                f"({self.xyz[:, i].tolist()}); remove the reversal")
+            raise GeometryError(f"the path folds back on itself at point {local} "
+                                f"({self.xyz[:, i].tolist()}); remove the reversal", key="points")

@@ -92,7 +92,7 @@ class Pipe:
         self.end_normal = end_normal
         self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
         if self.miter_limit < 1.0:
-            raise InputError(f"miter_limit: must be >= 1, got {miter_limit}")
+            raise InputError(f"must be >= 1, got {miter_limit}", key="miter_limit")
         if sides is None:
             if tolerance is None:
                 sides = 16
@@ -100,16 +100,16 @@ class Pipe:
                 tol = float(as_positive(tolerance, "tolerance"))
                 sides = sides_for_tolerance(radii.max(), tol)
                 if sides > MAX_SIDES:
-                    raise InputError(f"tolerance: {tol:g} needs {sides} sides, more than "
-                                     f"{MAX_SIDES}; use a larger tolerance")
+                    raise InputError(f"{tol:g} needs {sides} sides, more than "
+                                     f"{MAX_SIDES}; use a larger tolerance", key="tolerance")
         self.sides = as_int(sides, "sides", low=3, high=MAX_SIDES)
         self.cap_segments = as_int(max(2, self.sides // 4) if cap_segments is None
                                    else cap_segments, "cap_segments", low=1, high=MAX_SIDES)
         radii = np.broadcast_to(radii, (len(source),))
         if float(radii.min()) <= source._tolerance:
-            raise InputError(f"radius: {radii.min():g} is too small for this path, whose "
+            raise InputError(f"{radii.min():g} is too small for this path, whose "
                              f"points closer than {source._tolerance:g} count as one; use a "
-                             "larger radius")
+                             "larger radius", key="radius")
         if self.corners == "round":
             bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
             self.bend_radius = float(as_positive(bend, "bend_radius"))
@@ -214,7 +214,8 @@ class Pipe:
                 raise GeometryError(f"the pipe intersects itself: {problems[0]}"
                                     + (f" (and {len(problems) - 1} more)" if len(problems) > 1
                                        else "")
-                                    + "; smooth the path, reduce the radius, or pass repair=True")
+                                    + "; smooth the path or reduce the radius, or repair it",
+                                    fix={"repair": True})
             return self._repaired_mesh()
         vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
         return Mesh.trusted(vertices, faces, attributes=self.attributes())

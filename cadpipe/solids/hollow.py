@@ -26,7 +26,7 @@ def _ends(ends):
     """``(start, end)`` styles from one style or a pair."""
     pair = (ends, ends) if isinstance(ends, str) else tuple(ends)
     if len(pair) != 2:
-        raise InputError(f"ends: expected 'open', 'closed' or a pair of them, got {ends!r}")
+        raise InputError(f"expected 'open', 'closed' or a pair of them, got {ends!r}", key="ends")
     return tuple(as_choice(e, "ends", END_STYLES) for e in pair)
 
 
@@ -35,8 +35,8 @@ def _wall(wall, pipes):
     wall = float(as_positive(wall, "wall"))
     thinnest = min(float(p.radii.min()) for p in pipes)
     if wall >= thinnest:
-        raise InputError(f"wall: {wall:g} must be less than the smallest pipe radius "
-                         f"{thinnest:g}")
+        raise InputError(f"{wall:g} must be less than the smallest pipe radius "
+                         f"{thinnest:g}", key="wall")
     return wall
 
 
@@ -65,8 +65,8 @@ def bore(pipe, wall, start="open", end="open"):
     if path.closed or not (trim[start] or trim[end]):
         return inner
     if trim[start] + trim[end] >= path.length:
-        raise InputError(f"wall: closed ends {wall:g} thick leave no bore in a pipe "
-                         f"{path.length:g} long; use a thinner wall or open ends")
+        raise InputError(f"closed ends {wall:g} thick leave no bore in a pipe "
+                         f"{path.length:g} long; use a thinner wall or open ends", key="wall")
     return inner.trimmed(trim[start], trim[end])
 
 
@@ -98,7 +98,7 @@ class HollowPipe(Hollow):
 
     def __init__(self, pipe, wall, ends="open"):
         if not isinstance(pipe, Pipe):
-            raise InputError(f"pipe: expected a cadpipe.Pipe, got {type(pipe).__name__}")
+            raise InputError(f"expected a cadpipe.Pipe, got {type(pipe).__name__}", key="pipe")
         self.pipe = pipe
         self.wall = _wall(wall, [pipe])
         self.ends = _ends(ends)
@@ -132,7 +132,7 @@ class Junction(Hollow):
     def __init__(self, pipes):
         pipes = tuple(pipes)
         if not pipes or not all(isinstance(p, HollowPipe) for p in pipes):
-            raise InputError("pipes: expected one or more cadpipe.HollowPipe")
+            raise InputError("expected one or more cadpipe.HollowPipe", key="pipes")
         self.pipes = pipes
 
     def __repr__(self):
@@ -161,7 +161,7 @@ class HollowChain(Hollow):
     def __init__(self, pipes, wall, ends="open", transition="lcm", closed=False):
         pipes = tuple(pipes)
         if not pipes or not all(isinstance(p, Pipe) for p in pipes):
-            raise InputError("pipes: expected one or more cadpipe.Pipe")
+            raise InputError("expected one or more cadpipe.Pipe", key="pipes")
         self.pipes = pipes
         self.wall = _wall(wall, pipes)
         self.ends = _ends(ends)

@@ -10,14 +10,14 @@ def as_matrix(value, name="transform"):
     try:
         matrix = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a 4x4 matrix of numbers, got {value!r}") from None
+        raise InputError(f"expected a 4x4 matrix of numbers, got {value!r}", key=name) from None
     if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-        raise InputError(f"{name}: expected a finite 4x4 matrix, got shape {matrix.shape}")
+        raise InputError(f"expected a finite 4x4 matrix, got shape {matrix.shape}", key=name)
     if not np.allclose(matrix[3], [0, 0, 0, 1]):
-        raise InputError(f"{name}: the last row must be 0 0 0 1 (an affine placement), "
-                         f"got {matrix[3].tolist()}")
+        raise InputError("the last row must be 0 0 0 1 (an affine placement), "
+                         f"got {matrix[3].tolist()}", key=name)
     if abs(np.linalg.det(matrix[:3, :3])) < 1e-12:
-        raise InputError(f"{name}: the matrix flattens space (determinant 0)")
+        raise InputError("the matrix flattens space (determinant 0)", key=name)
     return matrix
 
 
@@ -38,7 +38,7 @@ def _three(value, name):
     except (TypeError, ValueError):
         arr = None
     if isinstance(value, str) or arr is None or not np.isfinite(arr).all():
-        raise InputError(f"{name}: expected 3 finite numbers, got {value!r}")
+        raise InputError(f"expected 3 finite numbers, got {value!r}", key=name)
     return arr
 
 
@@ -52,7 +52,7 @@ def placement(translate=(0, 0, 0), rotate=(0, 0, 0), scale=1.0):
 
     factors = _three(scale, "scale")
     if (factors == 0).any():
-        raise InputError(f"scale: factors must be non-zero, got {scale!r}")
+        raise InputError(f"factors must be non-zero, got {scale!r}", key="scale")
     matrix = np.eye(4)
     matrix[:3, :3] = Rotation.from_euler("xyz", _three(rotate, "rotate"),
                                          degrees=True).as_matrix() * factors
