@@ -97,7 +97,7 @@ def as_input_file(path, what="file", *, key=None, shown_as=None):
     try:
         mode = path.stat().st_mode
     except FileNotFoundError:
-        why = f"no such {what}{name}" if not path.is_symlink() else \
+        why = f"no such file{name}" if not path.is_symlink() else \
             f"{what}{name} is a link to a missing file"
         raise error(why + (f" in {path.parent}" if key else ""), **where) from None
     except (OSError, ValueError) as exc:
@@ -108,5 +108,6 @@ def as_input_file(path, what="file", *, key=None, shown_as=None):
     kind = ("a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
             else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else
             "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
-    raise error(f"{what}{name} is {kind}, not a regular file" if key else
-                f"is {kind}, not a {what}", **where)
+    noun = what if kind == "a folder" else "regular file"
+    raise error(f"{what}{name} is {kind}, not a {noun}" if key else f"is {kind}, not a {noun}",
+                **where)

@@ -67,8 +67,9 @@ _UNITS = {"max_triangles": "triangles", "max_samples": "path samples", "max_part
           "max_depth": "levels of nesting", "max_number_chars": "digits",
           "max_expansion": "times expansion", "max_unpacked_bytes": "bytes unpacked"}
 
-#: how each budget is raised, named in every message: API argument, spec key, CLI flag
-_OVERRIDE = "raise it with cadpipe.limits.using({name}=...), the spec key {name} or --{flag}"
+#: the budgets a spec sets with a key of the same name, and those the CLI sets with a flag
+SPEC_KEYS = ("max_triangles", "max_samples", "max_parts")
+CLI_FLAGS = ("max_triangles",)
 
 
 def current() -> Limits:
@@ -102,18 +103,22 @@ def _names():
     return [f.name for f in dataclasses.fields(Limits)]
 
 
-def check(name: str, needed: float, what: str, **where) -> None:
+def check(name: str, needed: float, what: str, *, at_least: bool = False, **where) -> None:
     """Raise :class:`LimitError` when ``needed`` exceeds the budget ``name``.
 
     ``what`` says what was measured ("a sphere of segments = 4096"); ``where``
-    (``key=``, ``part=``, ``file=``) locates the input that asked for it.
+    (``key=``, ``part=``, ``file=``) locates the input that asked for it;
+    ``at_least`` says ``needed`` is a lower bound (counting stopped there).
     """
     limit = getattr(current(), name)
-    if needed > limit:
-        flag = name.replace("_", "-")
-        raise LimitError(f"{what} needs about {needed:,.0f} {_UNITS[name]}, more than the "
-                         f"limit of {limit:,}; {_OVERRIDE.format(name=name, flag=flag)}",
-                         **where)
+    if not needed <= limit:                       # NaN and inf are over any limit
+        ways = [f"cadpipe.limits.using({name}=...)"]
+        ways += [f"the spec key {name}"] if name in SPEC_KEYS else []
+        ways += [f"--{name.replace('_', '-')}"] if name in CLI_FLAGS else []
+        amount = "more than can be counted" if not needed < 1e30 else \
+            f"{'at least' if at_least else 'about'} {needed:,.0f}"
+        raise LimitError(f"{what} needs {amount} {_UNITS[name]}, more than the limit of "
+                         f"{limit:,}; raise it with {' or '.join(ways)}", **where)
 
 
 def estimated_triangles(obj) -> int:

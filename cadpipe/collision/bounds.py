@@ -36,19 +36,30 @@ PLACE_CHUNK = 4096
 def fit_obb(points, pad):
     """An oriented box in the points' own frame: ``(centre, axes, half_extents)``.
 
-    ``axes`` holds the box axes as columns. Padding is added to every side.
+    ``axes`` holds the box axes as columns. Padding is added to every side, plus a
+    margin relative to the object's size and distance from the origin, so rounding
+    never leaves a point outside at any scale. The box is fitted to the points
+    moved to their centre and scaled to unit size (trimesh's tolerances are absolute:
+    a micrometre object would be below them), then its extents are measured.
     """
     import trimesh
 
     points = np.asarray(points, np.float64)
-    if len(points) >= 4 and np.linalg.matrix_rank(points - points.mean(axis=0), tol=1e-12) == 3:
-        to_origin, extents = trimesh.bounds.oriented_bounds(points)
-        frame = np.linalg.inv(to_origin)
-        centre, axes = frame[:3, 3], frame[:3, :3]
-    else:                              # flat or tiny point sets: the axis-aligned box
-        lo, hi = points.min(axis=0), points.max(axis=0)
-        centre, axes, extents = 0.5 * (lo + hi), np.eye(3), hi - lo
-    return centre, axes, 0.5 * np.asarray(extents) + float(np.max(pad, initial=0.0))
+    middle = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    size = float(np.ptp(points, axis=0).max(initial=0.0))
+    local = (points - middle) / size if size > 0 else points - middle
+    axes = np.eye(3)
+    if len(points) >= 4 and np.linalg.matrix_rank(local, tol=1e-9) == 3:
+        try:
+            axes = np.linalg.inv(trimesh.bounds.oriented_bounds(local)[0])[:3, :3]
+        except Exception:              # noqa: BLE001 (a degenerate hull: keep the world axes)
+            axes = np.eye(3)
+    # extents measured on the points themselves: the box holds them whatever the fit
+    proj = (points - middle) @ axes
+    lo, hi = proj.min(axis=0), proj.max(axis=0)
+    centre = middle + axes @ (0.5 * (lo + hi))
+    margin = 1e-9 * size + 8 * np.finfo(float).eps * float(np.abs(points).max(initial=0.0))
+    return centre, axes, 0.5 * (hi - lo) + float(np.max(pad, initial=0.0)) + margin
 
 
 def kdop_polytope(points, obb):
@@ -65,7 +76,8 @@ def kdop_polytope(points, obb):
     centre, axes, half = obb
     corners = centre + (CORNER_SIGNS * half) @ axes.T
     normals = np.concatenate([KDOP_DIRECTIONS, -KDOP_DIRECTIONS, axes.T, -axes.T])
-    reach = (points @ normals.T).max(axis=0) + 1e-9 * max(float(np.ptp(points)), 1.0)
+    reach = (points @ normals.T).max(axis=0) + 1e-9 * max(float(np.ptp(points)), 1.0) \
+        + 8 * np.finfo(float).eps * float(np.abs(points).max(initial=0.0))
     try:
         vertices = HalfspaceIntersection(np.c_[normals, -reach], points.mean(axis=0))
         vertices = vertices.intersections

@@ -171,8 +171,14 @@ class Mesh:
 
     @cached_property
     def volume(self):
-        """Signed volume by the divergence theorem: positive when faces point outward."""
-        t = self.triangles
+        """Signed volume by the divergence theorem: positive when faces point outward.
+
+        Summed about the vertices' mean, not the origin: far from the origin the
+        tetrahedra's volumes would be huge and cancel, losing every digit.
+        """
+        if len(self._faces) == 0:
+            return 0.0
+        t = self.triangles - self._vertices.mean(axis=0)
         return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property

@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._validate import as_points, as_positive
 from cadpipe._vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
@@ -134,6 +135,8 @@ class Path:
         Corners are kept, so a polyline keeps its shape exactly.
         """
         step = float(as_positive(step, "step"))
+        limits.check("max_samples", float(np.sum(self.segment_lengths / step)),
+                     f"resampling a path {self.length:.6g} long every {step:g}", key="step")
         counts = np.maximum(np.ceil(self.segment_lengths / step).astype(np.int64), 1)
         seg = np.repeat(np.arange(len(counts)), counts)
         frac = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
@@ -255,7 +258,10 @@ class Path:
         du = np.diff(dense_u)
         ds = 0.5 * (speed[1:] + speed[:-1]) * du
         weight = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * ds)])
-        n_seg = max(int(np.ceil(weight[-1])), 3 if closed else 1)
+        needed = float(weight[-1]) if np.isfinite(weight[-1]) else np.inf
+        limits.check("max_samples", needed, "this fitted path",
+                     key="step" if np.isfinite(step) else "tolerance")
+        n_seg = max(int(np.ceil(needed)), 3 if closed else 1)
         target = np.linspace(0.0, weight[-1], n_seg + 1)
         samples = curve(np.interp(target, weight, dense_u))
         if closed:

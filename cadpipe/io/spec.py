@@ -312,6 +312,8 @@ class Spec:
 def _parse(file):
     """The spec file's table, refusing what would exhaust the parser: a file larger
     than a spec can be, numbers too long to convert, nesting too deep to walk."""
+    if not file.exists() and not file.is_symlink():
+        raise SpecError("no such spec file", file=file)
     try:
         file = as_input_file(file, "spec file")
     except CadpipeError as exc:
@@ -337,7 +339,8 @@ def _parse(file):
     except RecursionError:
         data = None
     depth = _depth(data) if data is not None else limits.current().max_depth + 1
-    limits.check("max_depth", depth, "this spec's nesting of tables and lists", file=file)
+    limits.check("max_depth", depth, "this spec's nesting of tables and lists", at_least=True,
+                 file=file)
     return data
 
 
@@ -411,7 +414,7 @@ def _add_parts(ctx, assembly, parts):
         name = place["name"] or f"{kind}-{i}"
         triangles += limits.estimated_triangles(obj)
         try:
-            limits.check("max_triangles", triangles, f"the parts up to {key}", key=key)
+            limits.check("max_triangles", triangles, f"the parts so far ({i + 1} of {len(parts)})")
             getattr(assembly, place["op"])(name, obj, place["transform"], place["color"])
         except CadpipeError as exc:
             raise _located(exc, key) from None
