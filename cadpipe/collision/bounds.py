@@ -18,6 +18,8 @@ here. All tests are vectorized over pairs.
 
 import numpy as np
 
+from cadpipe.geometry.ragged import Groups
+
 #: the 9 directions of an 18-DOP: the axes and the 6 face diagonals
 KDOP_DIRECTIONS = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1],
                             [1, 1, 0], [1, -1, 0], [1, 0, 1],
@@ -167,9 +169,9 @@ def sweep_and_prune(lo, hi):
     starts = lo[order, axis]
     reach = np.searchsorted(starts, hi[order, axis], side="right")
     counts = np.maximum(reach - np.arange(n) - 1, 0)
-    first = np.repeat(np.arange(n), counts)
-    offsets = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    second = first + 1 + offsets
+    runs = Groups(counts)
+    first = runs.index
+    second = first + 1 + runs.local()
     i, j = order[first], order[second]
     keep = boxes_overlap(lo[i], hi[i], lo[j], hi[j])
     pairs = np.sort(np.stack([i[keep], j[keep]], axis=1), axis=1)

@@ -25,7 +25,7 @@ import numpy as np
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
-from cadpipe.solids.transform import is_rigid
+from cadpipe.solids.transform import as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import narrow
 from cadpipe.collision.bodies import as_body
@@ -67,17 +67,9 @@ def as_pose(transform, name):
 def as_poses(transforms, name, shape=None):
     """Rigid 4x4 float matrices ``(..., 4, 4)`` (exactly ``shape`` when given), or
     :class:`InputError` naming the object."""
-    try:
-        m = np.array(transforms, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: transform must be a 4x4 matrix of numbers") from None
-    if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
+    m = as_matrix(transforms, f"{name}: transform", stack=True, rigid=True)
+    if shape is not None and m.shape != shape:
         raise InputError(f"{name}: transform must be a 4x4 matrix, got shape {m.shape}")
-    if not np.isfinite(m).all():
-        raise InputError(f"{name}: transform has NaN or infinite entries; pass a finite matrix")
-    if not is_rigid(m):
-        raise InputError(f"{name}: transform must be rigid (a rotation and a translation); "
-                         "scale or mirror the mesh itself instead")
     return m
 
 
