@@ -182,6 +182,8 @@ def _inside(mesh_body, other, rel):
     the other body's extreme points all fit the mesh's own 18-DOP (a solid inside
     another lies inside the other's hull).
     """
+    if not mesh_body.closed:                                                  # a Surface
+        return np.zeros(len(rel), bool)
     points = _apply(rel, other.probes)                                       # (E, K, 3)
     lo, hi = mesh_body.mesh.bounds
     in_box = np.logical_and.reduce((points >= lo) & (points <= hi), axis=2)

@@ -313,8 +313,9 @@ class CollisionWorld:
             raise InputError(f"a robot with group {group!r} is already in the world; "
                              "pass another group=")
         base = as_pose(transform, f"robot {robot.name}")
+        shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
-            self.add(link, robot.link_meshes[link], transform=pose, group=group)
+            self.add(link, shapes[link], transform=pose, group=group)
         for a, b, reason in robot.allowed_pairs:
             self.allow(a, b, reason)
         self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
