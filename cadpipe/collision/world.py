@@ -321,6 +321,11 @@ class CollisionWorld:
         self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
         return self
 
+    def robot(self, group):
+        """``(robot, base pose)`` of the robot added as ``group``."""
+        robot, base, _ = self._robot(group)
+        return robot, base.copy()
+
     def _robot(self, group):
         if group not in self._robots:
             raise InputError(f"no robot in group {group!r}; robots: {', '.join(self._robots)}")
@@ -391,7 +396,14 @@ class CollisionWorld:
         return self._evaluate(np.zeros(0, np.int64), np.zeros((1, 0, 4, 4)), stop_after_self,
                               certify)[0]
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False):
+    def check_motion(self, group, q_a, q_b, tolerance=None):
+        """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
+        ``q_b`` (a :class:`~cadpipe.collision.motion.MotionCheck`); see
+        :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
+        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
+
+    def check_path(self, group, configurations, stop_after_self=False, certify=False,
+                   between=False, tolerance=None):
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass; returns :class:`CollisionReports`.
 
@@ -400,7 +412,16 @@ class CollisionWorld:
         stands -- the motion between them is not swept -- and its report is
         the one :meth:`set_joints` then :meth:`check` would give. The robot
         stays where :meth:`set_joints` last put it.
+
+        With ``between=True`` the motion between consecutive configurations is
+        certified instead (conservative advancement, stopping at the first
+        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
         """
+        if between:
+            from cadpipe.collision import motion
+
+            return motion.check_motion(self, group, configurations,
+                                       motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
         return self._evaluate(ids, poses, stop_after_self, certify)
@@ -582,6 +603,15 @@ class CollisionWorld:
         dist, pa, pb, stage = narrow.distance(self._bodies[i], self._poses[i], self._bodies[j],
                                               self._poses[j])
         return Clearance(float(dist), pa, pb, dist <= 0, stage)
+
+    def distance_at(self, a, b, pose_a, pose_b, containment=True):
+        """Clearance (0 when touching) between ``a`` placed at ``pose_a`` and ``b`` at
+        ``pose_b``, rigid 4x4 poses; where they stand is unchanged. With
+        ``containment=False`` it is the distance between the boundaries (a solid
+        inside another is not seen), as a motion from a free state needs."""
+        i, j = self._find(a), self._find(b)
+        return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
+                                     containment)[0])
 
     def separate(self, a, b, step_degrees=None):
         """The source's separation certificate for ``a`` and ``b``, or None.
