@@ -102,10 +102,14 @@ def test_the_motion_bound_covers_every_vertex_of_every_link(panda):
     rng = np.random.default_rng(8)
     lo, hi = panda.limits
     t = np.linspace(0.0, 1.0, 201)
-    for _ in range(10):
+    for k in range(20):
         q_a, q_b = rng.uniform(lo, hi, (2, len(lo)))
+        if k % 2:                      # short segments too, where the start lever decides
+            q_b = q_a + 0.05 * (q_b - q_a)
         v_a, v_b = panda.joint_array(np.stack([q_a, q_b]))
-        bound = (chain.reach(v_a, v_b) * np.abs(v_b - v_a)).sum(axis=1)
+        frames = panda.all_frame_poses(q_a[None])[0]
+        reach = chain.reach(v_a, v_b, frames, frames[chain.geometry])
+        bound = (reach * np.abs(v_b - v_a)).sum(axis=1)
         poses = panda.link_pose_array(q_a + t[:, None] * (q_b - q_a))
         for link, (name, mesh) in enumerate(panda.link_meshes.items()):
             moved = mesh.vertices @ np.swapaxes(poses[:, link, :3, :3], 1, 2) \

@@ -33,6 +33,7 @@ so a real contact follows within about ``tolerance / speed``. Pairs keep
 advancing only up to the earliest contact found so far (the early exit).
 """
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,9 +88,9 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE):
         raise InputError("a motion needs at least two configurations", key="configurations")
     q = np.asarray(configurations, np.float64)
     pairs = _Pairs(world, group, robot)
-    chain = _Chain(robot)
+    chain = _chain(robot)
     calls = 0
-    starts = _start_contacts(world, group, robot, q[:-1], pairs)
+    starts = start_contacts(world, group, q[:-1])
     for segment in range(len(values) - 1):
         if starts[segment] is not None:
             return MotionCheck(False, segment, 0.0, starts[segment], q[segment].copy(), 0.0,
@@ -105,15 +106,33 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE):
     return MotionCheck(True, None, None, None, None, None, tolerance, calls)
 
 
-def _start_contacts(world, group, robot, q, pairs):
-    """Per configuration, the first motion pair in contact there (None if free)."""
+def robot_pairs(world, group):
+    """``(P,)`` bool over the world's pairs (``np.triu_indices`` order of
+    ``world.names``, as :attr:`CollisionReports.pair_colliding`): the pairs with
+    at least one link of robot ``group``, the ones its motion can change."""
+    mine = np.array([world.group(n) == group for n in world.names])
+    first, second = np.triu_indices(len(mine), k=1)
+    return mine[first] | mine[second]
+
+
+def robot_collides(world, group, configurations):
+    """``(C,)`` bool: whether robot ``group`` touches anything at each configuration
+    (pairs of standing objects left out)."""
+    reports = world.check_path(group, configurations)
+    return (reports.pair_colliding & robot_pairs(world, group)).any(axis=1)
+
+
+def start_contacts(world, group, q):
+    """Per configuration, the first pair with a robot link in contact there (None
+    if the robot is free)."""
     reports = world.check_path(group, q)
-    wanted = set(zip(pairs.name_a, pairs.name_b)) | set(zip(pairs.name_b, pairs.name_a))
+    hit = (reports.pair_colliding & robot_pairs(world, group)).any(axis=1)
+    mine = {n for n in world.names if world.group(n) == group}
     found = []
     for c in range(len(q)):
-        hits = [(a, b) for a, b, _ in reports[c].collisions if (a, b) in wanted] \
-            if reports.colliding[c] else []
-        found.append(hits[0] if hits else None)
+        pairs = [(a, b) for a, b, _ in reports[c].collisions if a in mine or b in mine] \
+            if hit[c] else []
+        found.append(pairs[0] if pairs else None)
     return found
 
 
@@ -136,11 +155,19 @@ class _Pairs:
         self.a, self.b, self.other = (np.array(v, np.int64) for v in (a, b, other))
         self.name_a = [links[i] for i in a]
         self.name_b = [links[j] if j >= 0 else others[o] for j, o in zip(b, other)]
-        # a ball around each standing object's world box, and its pose
-        boxes = np.array([world.bounds(n) for n in others]).reshape(-1, 2, 3)
-        self.centre = 0.5 * (boxes[:, 0] + boxes[:, 1])
-        self.ball = 0.5 * np.linalg.norm(boxes[:, 1] - boxes[:, 0], axis=1)
+        # each standing object's world box and pose
+        self.box = np.array([world.bounds(n) for n in others]).reshape(-1, 2, 3)
         self.pose = np.array([world.pose(n) for n in others]).reshape(-1, 4, 4)
+
+
+_CHAINS = weakref.WeakKeyDictionary()
+
+
+def _chain(robot):
+    """The robot's :class:`_Chain`, built once (robots do not change)."""
+    if robot not in _CHAINS:
+        _CHAINS[robot] = _Chain(robot)
+    return _CHAINS[robot]
 
 
 class _Chain:
@@ -165,6 +192,10 @@ class _Chain:
             for at, j in enumerate(path):
                 self.below[g, j, path[at + 1:]] = True
         self.offset = np.array([np.linalg.norm(j.origin[:3, 3]) for j in joints])
+        frames = {name: k for k, name in enumerate(robot.frames)}
+        self.parent = np.array([frames[j.parent] for j in joints], np.int64)
+        self.origin = np.array([j.origin for j in joints]).reshape(-1, 4, 4)
+        self.axis = np.array([j.axis for j in joints]).reshape(-1, 3)
         self.turning = np.array([j.kind in ("revolute", "continuous") for j in joints])
         self.sliding = np.array([j.kind == "prismatic" for j in joints])
         self.radius = np.array([np.linalg.norm(m.vertices, axis=1).max() for m in meshes])
@@ -172,19 +203,38 @@ class _Chain:
         self.centre = np.array([0.5 * (m.bounds[0] + m.bounds[1]) for m in meshes])
         self.ball = np.array([np.linalg.norm(m.vertices - c, axis=1).max()
                               for m, c in zip(meshes, self.centre)])
+        self.geometry = np.array([frames[name] for name in robot.link_meshes], np.int64)
 
-    def reach(self, v_a, v_b):
+    def reach(self, v_a, v_b, frames, links):
         """``(L, J)`` how far a point of link ``l`` can move per unit of joint ``j``'s
         motion over the segment between full joint values ``v_a`` and ``v_b``:
-        its lever arm for a turning joint, 1 for a sliding one, 0 off its path."""
+        its lever arm for a turning joint, 1 for a sliding one, 0 off its path.
+
+        The lever is the smaller of the chain bound (joint offsets, prismatic
+        travel and the link's radius, good everywhere) and the lever at the
+        segment's start (the link's ball's distance from the axis, ``frames``
+        and ``links`` being every frame's and each geometry link's start pose)
+        plus how far the link can move relative to joint ``j`` meanwhile.
+        """
         travel = np.where(self.sliding, np.maximum(np.abs(v_a), np.abs(v_b)), 0.0)
         lever = self.below @ (self.offset + travel) + self.radius[:, None]
-        return np.where(self.above, np.where(self.turning, lever, self.sliding * 1.0), 0.0)
+        step = np.abs(v_b - v_a)
+        chain = np.where(self.above, np.where(self.turning, lever, self.sliding * 1.0), 0.0)
+        # relative[l, j]: the chain bound of link l's travel in joint j's frame
+        relative = np.einsum("ljk,lk->lj", self.below, chain * step)
+        joint = frames[self.parent] @ self.origin                          # (J, 4, 4)
+        point, direction = joint[:, :3, 3], np.einsum("jab,jb->ja", joint[:, :3, :3], self.axis)
+        centre = np.einsum("lab,lb->la", links[:, :3, :3], self.centre) + links[:, :3, 3]
+        offset = centre[:, None] - point[None]                              # (L, J, 3)
+        along = np.einsum("lja,ja->lj", offset, direction)
+        off_axis = np.sqrt(np.maximum(np.einsum("lja,lja->lj", offset, offset) - along ** 2, 0))
+        start = off_axis + self.ball[:, None] + relative
+        return np.where(self.turning & self.above, np.minimum(chain, start), chain)
 
-    def speed(self, pairs, v_a, v_b):
+    def speed(self, pairs, v_a, v_b, frames, links):
         """``(P,)`` how much each pair's clearance can shrink over the segment: the
         bound of the module docstring, joints shared by two links left out."""
-        per_joint = self.reach(v_a, v_b) * np.abs(v_b - v_a)                 # (L, J)
+        per_joint = self.reach(v_a, v_b, frames, links) * np.abs(v_b - v_a)   # (L, J)
         own = pairs.b >= 0
         b = np.where(own, pairs.b, 0)
         shared = self.above[pairs.a] & self.above[b] & own[:, None]
@@ -201,7 +251,8 @@ def _advance(world, robot, base, chain, pairs, q_a, q_b, v_a, v_b, tolerance):
     whose bounding balls already prove the rest of the way, and asks the exact
     clearance of the others.
     """
-    speed = chain.speed(pairs, v_a, v_b)
+    frames = robot.all_frame_poses(q_a[None], base)[0]
+    speed = chain.speed(pairs, v_a, v_b, frames, frames[chain.geometry])
     t = np.zeros(len(pairs.a))
     horizon, hit, calls = 1.0, None, 0
     for _ in range(MAX_ROUNDS):
@@ -216,10 +267,13 @@ def _advance(world, robot, base, chain, pairs, q_a, q_b, v_a, v_b, tolerance):
         pose_b = np.where(link_b[:, None, None], poses[inverse, np.maximum(b, 0)],
                           pairs.pose[np.maximum(other, 0)] if len(pairs.pose) else pose_a)
         centre_a = _apply(pose_a, chain.centre[a])
-        centre_b = np.where(link_b[:, None], _apply(pose_b, chain.centre[np.maximum(b, 0)]),
-                            pairs.centre[np.maximum(other, 0)] if len(pairs.pose) else 0.0)
-        ball_b = np.where(link_b, chain.ball[np.maximum(b, 0)],
-                          pairs.ball[np.maximum(other, 0)] if len(pairs.pose) else 0.0)
+        # a lower bound of the clearance: link ball to link ball, or to the object's box
+        centre_b = _apply(pose_b, chain.centre[np.maximum(b, 0)])
+        if len(pairs.box):
+            box = pairs.box[np.maximum(other, 0)]
+            nearest = np.minimum(np.maximum(centre_a, box[:, 0]), box[:, 1])
+            centre_b = np.where(link_b[:, None], centre_b, nearest)
+        ball_b = np.where(link_b, chain.ball[np.maximum(b, 0)], 0.0)
         lower = np.linalg.norm(centre_a - centre_b, axis=1) - chain.ball[a] - ball_b
         enough = lower >= speed[active] * (horizon - t[active])
         t[active[enough]] = horizon

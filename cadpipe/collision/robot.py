@@ -189,8 +189,13 @@ class Robot:
         precomputed); then one stacked matrix product per joint walks down the
         tree, for all configurations together.
         """
-        return self._frame_pose_array(self.joint_array(configurations), base)[
-            :, self._kinematics["geometry"]]
+        return self.all_frame_poses(configurations, base)[:, self._kinematics["geometry"]]
+
+    def all_frame_poses(self, configurations, base=None):
+        """``(C, F, 4, 4)`` world poses of every frame of the URDF, in :attr:`frames`
+        order (the base first, then each joint's child), at ``(C, A)`` joint
+        configurations."""
+        return self._frame_pose_array(self.joint_array(configurations), base)
 
     def _frame_pose_array(self, q, base):
         """``(C, F, 4, 4)`` poses of every frame (:attr:`frames` order) at ``(C, J)``
