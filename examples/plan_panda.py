@@ -59,9 +59,9 @@ def main(out=None):
         out = FilePath(out)
         out.mkdir(parents=True, exist_ok=True)
         tcp = Path.from_trajectory(robot, path, frame="panda_hand_tcp", step=0.01)
-        Pipe(tcp, radius=0.06).mesh.export(out / "tcp_pipe.stl")
-        write_trajectory_usd(out / "panda_motion.usda", robot, path, pipes={"tcp_pipe": Pipe(
-            tcp, radius=0.06)})
+        pipe = Pipe(tcp, radius=0.06, repair=True)
+        pipe.mesh().export(out / "tcp_pipe.stl")
+        write_trajectory_usd(out / "panda_motion.usda", robot, path, extras={"tcp_pipe": pipe})
         print(f"wrote {out / 'tcp_pipe.stl'} and {out / 'panda_motion.usda'}")
     return path
 

@@ -143,7 +143,7 @@ class _Pairs:
     def __init__(self, world, group, robot):
         links = list(robot.link_meshes)
         others = [n for n in world.names if world.group(n) != group]
-        allowed = {frozenset((x, y)) for x, y, _ in world.allowed()}
+        allowed = {frozenset((x, y)) for x, y, _ in world.allowed}
         a, b, other = [], [], []
         for i, x in enumerate(links):
             for j in range(i + 1, len(links)):
