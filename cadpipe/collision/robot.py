@@ -402,10 +402,10 @@ def _link_mesh(parts, link, open_meshes):
 
     solids, said, is_open = [], [], False
     for mesh, source in parts:
-        if mesh.is_watertight and mesh.volume < 0:
+        if mesh.is_oriented and mesh.volume < 0:
             mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
             said.append(f"{source}: faces pointed inward, flipped")
-        if not mesh.is_watertight or mesh.volume <= 0:
+        if not mesh.is_oriented or mesh.volume <= 0:
             if open_meshes == "hull":
                 mesh = _hull(mesh, link, source)
                 said.append(f"{source}: not a closed solid, replaced by its convex hull "
