@@ -263,9 +263,9 @@ class Path:
 
     def transformed(self, matrix):
         """The path moved by a 4x4 homogeneous matrix."""
-        m = np.asarray(matrix, dtype=np.float64)
-        if m.shape != (4, 4) or not np.isfinite(m).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {m.shape}")
+        from cadpipe.solids.transform import as_matrix
+
+        m = as_matrix(matrix)
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
