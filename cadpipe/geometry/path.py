@@ -273,6 +273,15 @@ class Path:
 
     # -- fitted curves -------------------------------------------------------
     @classmethod
+    def from_trajectory(cls, robot, configurations, frame, step, base=None):
+        """The path of a robot ``frame``'s origin over a joint trajectory, sampled so
+        the polyline follows the motion within ``step / 2``; see
+        :func:`cadpipe.collision.trajectory.trajectory_points`."""
+        from cadpipe.collision.trajectory import path_from_trajectory
+
+        return path_from_trajectory(robot, configurations, frame, step, base)
+
+    @classmethod
     def spline(cls, points, step=None, *, tolerance=None, closed=False):
         """Fit a cubic spline through ``points`` and discretize it.
 
