@@ -39,11 +39,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
-import numba
 import numpy as np
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
+from cadpipe.solids.transform import as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow
@@ -69,48 +69,10 @@ def as_pose(transform, name):
 def as_poses(transforms, name, shape=None):
     """Rigid 4x4 float matrices ``(..., 4, 4)`` (exactly ``shape`` when given), or
     :class:`InputError` naming the object."""
-    try:
-        m = np.array(transforms, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError("transform must be a 4x4 matrix of numbers", part=name) from None
-    if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
+    m = as_matrix(transforms, part=name, stack=True, rigid=True)
+    if shape is not None and m.shape != shape:
         raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
-    problem = _pose_problem(m.reshape(-1, 4, 4))
-    if problem == 1:
-        raise InputError("transform has NaN or infinite entries; pass a finite matrix",
-                         part=name)
-    if problem == 2:
-        raise InputError("transform must be rigid (a rotation and a translation); "
-                         "scale or mirror the mesh itself instead", part=name)
     return m
-
-
-@numba.njit(cache=True)
-def _pose_problem(m):
-    """0 if every (4, 4) matrix is a finite rigid motion, 1 if one is not finite, 2 if
-    one is not rigid (the tolerances of :func:`cadpipe.solids.transform.is_rigid`).
-    One set_pose of a pipe: 168 -> 3 us of the 271 us its set_pose + check took."""
-    for e in range(len(m)):
-        for r in range(4):
-            for c in range(4):
-                if not np.isfinite(m[e, r, c]):
-                    return 1
-    for e in range(len(m)):
-        a = m[e]
-        if abs(a[3, 0]) > 1e-9 or abs(a[3, 1]) > 1e-9 or abs(a[3, 2]) > 1e-9 or \
-                abs(a[3, 3] - 1.0) > 1e-9:
-            return 2
-        for i in range(3):
-            for j in range(3):
-                dot = a[0, i] * a[0, j] + a[1, i] * a[1, j] + a[2, i] * a[2, j]
-                if abs(dot - (1.0 if i == j else 0.0)) > 1e-6:
-                    return 2
-        det = a[0, 0] * (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]) \
-            - a[0, 1] * (a[1, 0] * a[2, 2] - a[1, 2] * a[2, 0]) \
-            + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
-        if not det > 0:
-            return 2
-    return 0
 
 
 # -- results ------------------------------------------------------------------------
@@ -401,12 +363,18 @@ class Scene:
             raise InputError(f"a robot with group {group!r} is already in the world; "
                              "pass another group=")
         base = as_pose(transform, f"robot {robot.name}")
+        shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
-            self.add(link, robot.link_meshes[link], transform=pose, group=group)
+            self.add(link, shapes[link], transform=pose, group=group)
         for a, b, reason in robot.allowed_pairs:
             self.allow(a, b, reason)
         self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
         return self
+
+    def robot(self, group):
+        """``(robot, base pose)`` of the robot added as ``group``."""
+        robot, base, _ = self._robot(group)
+        return robot, base.copy()
 
     def _robot(self, group):
         if group not in self._robots:
@@ -776,7 +744,14 @@ class CollisionWorld(Scene):
         """
         return self.checker.check(stop_after_self, certify, first_hit, only)
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False):
+    def check_motion(self, group, q_a, q_b, tolerance=None):
+        """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
+        ``q_b`` (a :class:`~cadpipe.collision.motion.MotionCheck`); see
+        :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
+        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
+
+    def check_path(self, group, configurations, stop_after_self=False, certify=False,
+                   between=False, tolerance=None):
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass; returns :class:`CollisionReports`.
 
@@ -785,7 +760,16 @@ class CollisionWorld(Scene):
         stands -- the motion between them is not swept -- and its report is
         the one :meth:`set_joints` then :meth:`check` would give. The robot
         stays where :meth:`set_joints` last put it.
+
+        With ``between=True`` the motion between consecutive configurations is
+        certified instead (conservative advancement, stopping at the first
+        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
         """
+        if between:
+            from cadpipe.collision import motion
+
+            return motion.check_motion(self, group, configurations,
+                                       motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
         return self.checker.check_moving(ids, poses, stop_after_self, certify)
@@ -812,6 +796,15 @@ class CollisionWorld(Scene):
     def distance(self, a, b):
         """See :meth:`Checker.distance`."""
         return self.checker.distance(a, b)
+
+    def distance_at(self, a, b, pose_a, pose_b, containment=True):
+        """Clearance (0 when touching) between ``a`` placed at ``pose_a`` and ``b`` at
+        ``pose_b``, rigid 4x4 poses; where they stand is unchanged. With
+        ``containment=False`` it is the distance between the boundaries (a solid
+        inside another is not seen), as a motion from a free state needs."""
+        i, j = self._find(a), self._find(b)
+        return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
+                                     containment)[0])
 
     def separate(self, a, b, step_degrees=None):
         """See :meth:`Checker.separate`."""
