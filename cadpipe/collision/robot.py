@@ -322,7 +322,6 @@ def _kinematics(joints, base, geometry):
             "turn2": origin @ cross @ cross, "slide": origin @ slide,
             "revolute": np.array([j.kind in ("revolute", "continuous") for j in joints], float),
             "prismatic": np.array([j.kind == "prismatic" for j in joints], float),
-            "edges": [(index[j.parent], index[j.child]) for j in joints],
             "actuated": np.array(actuated, np.int64),
             "lower": np.array([joints[k].lower for k in actuated]),
             "upper": np.array([joints[k].upper for k in actuated]),
