@@ -199,6 +199,8 @@ def _inside(mesh_body, other, rel):
     the other body's extreme points all fit the mesh's own 18-DOP (a solid inside
     another lies inside the other's hull).
     """
+    if not mesh_body.closed:                                                  # a Surface
+        return np.zeros(len(rel), bool)
     low, high = mesh_body.local_kdop
     lo, hi = mesh_body.mesh.bounds
     near = np.empty(len(rel), np.bool_)
@@ -310,10 +312,11 @@ def _mesh_chain(mesh_body, chain_body, rel):
 
 
 # -- clearance ----------------------------------------------------------------------
-def distance(body_a, pose_a, body_b, pose_b):
+def distance(body_a, pose_a, body_b, pose_b, containment=True):
     """``(distance, point_a, point_b, decided_by)`` in world coordinates.
 
-    Distance 0 (and no points) when the bodies touch or one contains the other.
+    Distance 0 (and no points) when the bodies touch or (``containment``) one
+    contains the other.
     """
     if body_a.kind == "chain" and body_b.kind == "chain":
         gap, pa, pb = body_a.chain.gap(body_b.chain, relative(pose_a, pose_b))
@@ -330,7 +333,7 @@ def distance(body_a, pose_a, body_b, pose_b):
     else:
         dist, pa, pb = _mesh_chain_distance(body_a, body_b, rel)
     decided = "fcl"
-    if dist > 0 and collide(body_a, _EYE[None], body_b, rel[None])[0][0]:
+    if containment and dist > 0 and collide(body_a, _EYE[None], body_b, rel[None])[0][0]:
         dist, pa, pb, decided = 0.0, None, None, "containment"
     if dist <= 0:
         return 0.0, None, None, decided

@@ -363,12 +363,18 @@ class Scene:
             raise InputError(f"a robot with group {group!r} is already in the world; "
                              "pass another group=")
         base = as_pose(transform, f"robot {robot.name}")
+        shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
-            self.add(link, robot.link_meshes[link], transform=pose, group=group)
+            self.add(link, shapes[link], transform=pose, group=group)
         for a, b, reason in robot.allowed_pairs:
             self.allow(a, b, reason)
         self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
         return self
+
+    def robot(self, group):
+        """``(robot, base pose)`` of the robot added as ``group``."""
+        robot, base, _ = self._robot(group)
+        return robot, base.copy()
 
     def _robot(self, group):
         if group not in self._robots:
@@ -737,7 +743,14 @@ class CollisionWorld(Scene):
         """
         return self.checker.check(stop_after_self, certify, first_hit, only)
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False):
+    def check_motion(self, group, q_a, q_b, tolerance=None):
+        """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
+        ``q_b`` (a :class:`~cadpipe.collision.motion.MotionCheck`); see
+        :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
+        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
+
+    def check_path(self, group, configurations, stop_after_self=False, certify=False,
+                   between=False, tolerance=None):
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass; returns :class:`CollisionReports`.
 
@@ -746,7 +759,16 @@ class CollisionWorld(Scene):
         stands -- the motion between them is not swept -- and its report is
         the one :meth:`set_joints` then :meth:`check` would give. The robot
         stays where :meth:`set_joints` last put it.
+
+        With ``between=True`` the motion between consecutive configurations is
+        certified instead (conservative advancement, stopping at the first
+        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
         """
+        if between:
+            from cadpipe.collision import motion
+
+            return motion.check_motion(self, group, configurations,
+                                       motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
         return self.checker.check_moving(ids, poses, stop_after_self, certify)
@@ -773,6 +795,15 @@ class CollisionWorld(Scene):
     def distance(self, a, b):
         """See :meth:`Checker.distance`."""
         return self.checker.distance(a, b)
+
+    def distance_at(self, a, b, pose_a, pose_b, containment=True):
+        """Clearance (0 when touching) between ``a`` placed at ``pose_a`` and ``b`` at
+        ``pose_b``, rigid 4x4 poses; where they stand is unchanged. With
+        ``containment=False`` it is the distance between the boundaries (a solid
+        inside another is not seen), as a motion from a free state needs."""
+        i, j = self._find(a), self._find(b)
+        return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
+                                     containment)[0])
 
     def separate(self, a, b, step_degrees=None):
         """See :meth:`Checker.separate`."""
