@@ -5,13 +5,14 @@ Meshes go through FCL's BVHs (plus a containment test FCL lacks); pipes are
 checked analytically as chains of round cones; robots come from URDF.
 """
 
-from cadpipe.collision.bodies import Box, Capsule, Sphere
+from cadpipe.collision.bodies import Box, Capsule, Sphere, Surface
 from cadpipe.collision.cell import world_from_spec
 from cadpipe.collision.certificate import Certificate
 from cadpipe.collision.fixture import PipeContainment
 from cadpipe.collision.robot import Joint, Robot, srdf_disabled_pairs
-from cadpipe.collision.world import STAGES, Clearance, CollisionReport, CollisionReports, CollisionWorld, PairResult
+from cadpipe.collision.world import (STAGES, Clearance, CollisionReport, CollisionReports,
+                                     CollisionWorld, PairResult)
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
            "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment",
-           "Robot", "Sphere", "srdf_disabled_pairs", "world_from_spec"]
+           "Robot", "Sphere", "Surface", "srdf_disabled_pairs", "world_from_spec"]

@@ -311,11 +311,13 @@ class Pipe:
     @property
     def attributes(self):
         """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
-        return _deprecated.Attributes({"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
-                "radius_max": float(self.radii.max()), "path_length": self.path.length,
-                "path_points": len(self.path), "closed": self.closed, "caps": "/".join(dict.fromkeys(self.cap_styles)),
-                "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
-                                      "Pipe.attributes")
+        return _deprecated.Attributes({
+            "kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+            "radius_max": float(self.radii.max()), "path_length": self.path.length,
+            "path_points": len(self.path), "closed": self.closed,
+            "caps": "/".join(dict.fromkeys(self.cap_styles)),
+            "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
+            "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
     def self_intersections(self):
@@ -344,7 +346,8 @@ class Pipe:
                 raise GeometryError(f"the pipe intersects itself: {problems[0]}"
                                     + (f" (and {len(problems) - 1} more)" if len(problems) > 1
                                        else "")
-                                    + "; smooth the path, reduce the radius, or pass repair=True")
+                                    + "; smooth the path or reduce the radius, or repair it",
+                                    fix={"repair": True})
             return self._repaired_mesh()
         vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
         return Mesh.trusted(vertices, faces, attributes=self.attributes)

@@ -31,7 +31,7 @@ def _ends(ends):
     """``(start, end)`` styles from one style or a pair."""
     pair = (ends, ends) if isinstance(ends, str) else tuple(ends)
     if len(pair) != 2:
-        raise InputError(f"ends: expected 'open', 'closed' or a pair of them, got {ends!r}")
+        raise InputError(f"expected 'open', 'closed' or a pair of them, got {ends!r}", key="ends")
     return tuple(as_choice(e, "ends", END_STYLES) for e in pair)
 
 
