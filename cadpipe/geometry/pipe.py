@@ -250,9 +250,10 @@ class Pipe:
 
     @cached_property
     def _twist_bound(self) -> float:
-        """Most twist between neighbouring rings (radians): an end normal's is held to :data:`~cadpipe.geometry.frames.MAX_TWIST_STEP`, a loop's
-        holonomy spreads at most ``pi / sides`` by arc length. A band twisted by ``d``
-        sags to ``cos(d / 2)`` of its radius, which an envelope makes up for."""
+        """Most twist between neighbouring rings (radians): an end normal's is held to
+        :data:`~cadpipe.geometry.frames.MAX_TWIST_STEP`, a loop's holonomy spreads at
+        most ``pi / sides`` by arc length. A band twisted by ``d`` sags to
+        ``cos(d / 2)`` of its radius, which an envelope makes up for."""
         if self.end_normal is not None:
             return MAX_TWIST_STEP
         if self.closed:
@@ -590,9 +591,10 @@ def joint_rows_of(tubes, first, last, pipe):
     """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) get a ball
     joint: with ``corners="round"`` (and no envelope: a joint's faces beside the bend
     axis fan from one unswept vertex and cut across the ball, so an envelope keeps
-    its miter joints, which hold every ball on the path), the corners whose miter tip would stick out farther than the ring polygon's own
-    chordal deviation, ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep
-    their miter, which already holds the corner's ball."""
+    its miter joints, which hold every ball on the path), the corners whose miter
+    tip would stick out farther than the ring polygon's own chordal deviation,
+    ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep their miter, which
+    already holds the corner's ball."""
     if pipe.corners != "round" or pipe.envelope:
         return np.zeros(last - first + 1, bool)
     return tubes.miter_stretch[first:last + 1] - 1.0 > 1.0 - np.cos(np.pi / pipe.sides)
