@@ -214,5 +214,5 @@ def as_body(obj, name):
     if isinstance(obj, Capsule):
         half = np.array([[0.0, 0.0, -0.5 * obj.length], [0.0, 0.0, 0.5 * obj.length]])
         return Body(chain=Chain.along(half, obj.radius))
-    raise InputError(f"{name}: cannot check a {type(obj).__name__} for collisions; "
-                     "add a cadpipe Mesh, Pipe, Box, Sphere or Capsule")
+    raise InputError(f"cannot check a {type(obj).__name__} for collisions; "
+                     "add a cadpipe Mesh, Pipe, Box, Sphere or Capsule", part=name)

@@ -154,19 +154,19 @@ class Robot:
         try:
             q = np.asarray(configurations, dtype=np.float64)
         except (TypeError, ValueError):
-            raise InputError(f"joints: expected numbers (radians or metres), got "
-                             f"{configurations!r}") from None
+            raise InputError("expected numbers (radians or metres), got "
+                             f"{configurations!r}", key="joints") from None
         q = q[None] if q.ndim == 1 else q
         if q.ndim != 2 or q.shape[1] != len(self.actuated):
-            raise InputError(f"joints: robot {self.name} has {len(self.actuated)} joints "
+            raise InputError(f"robot {self.name} has {len(self.actuated)} joints "
                              f"({', '.join(self.actuated)}), got "
-                             f"{q.shape[-1] if q.ndim else 1} values")
+                             f"{q.shape[-1] if q.ndim else 1} values", key="joints")
         k = self._kinematics
         within = (q >= k["lower"] - 1e-9) & (q <= k["upper"] + 1e-9)    # NaN is not
         if not within.all():
             c, a = np.argwhere(~within)[0]
-            raise InputError(f"joints: {self.actuated[a]}={float(q[c, a])!r} is outside its limits "
-                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]")
+            raise InputError(f"{self.actuated[a]}={float(q[c, a])!r} is outside its limits "
+                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]", key="joints")
         values = np.zeros((len(q), len(self.joints)))
         values[:, k["actuated"]] = q
         for j, source, multiplier, offset in k["mimics"]:
@@ -176,8 +176,8 @@ class Robot:
     def _from_mapping(self, joints):
         unknown = set(joints) - set(self.actuated)
         if unknown:
-            raise InputError(f"joints: unknown joint {sorted(unknown)[0]!r}; robot "
-                             f"{self.name} has {', '.join(self.actuated)}")
+            raise InputError(f"unknown joint {sorted(unknown)[0]!r}; robot "
+                             f"{self.name} has {', '.join(self.actuated)}", key="joints")
         return [joints.get(name, value) for name, value in zip(self.actuated, self.default)]
 
     def link_pose_array(self, configurations, base=None):
@@ -244,8 +244,8 @@ class Robot:
         of one of :meth:`link_pose_array`."""
         poses = self.link_pose_array(joints, base)
         if len(poses) != 1:
-            raise InputError(f"joints: one configuration of robot {self.name} expected, got "
-                             f"{len(poses)}; use link_pose_array() for many")
+            raise InputError(f"one configuration of robot {self.name} expected, got "
+                             f"{len(poses)}; use link_pose_array() for many", key="joints")
         return poses[0]
 
     def link_poses(self, joints=None, base=None):
@@ -284,7 +284,7 @@ class Robot:
             model = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
                                        build_collision_scene_graph=False)
         except Exception as exc:      # lxml and yourdfpy raise many types for bad files
-            raise SpecError(f"{path}: not a readable URDF ({type(exc).__name__}: {exc})") \
+            raise SpecError(f"not a readable URDF ({type(exc).__name__}: {exc})", file=path) \
                 from None
         joints = [_joint(j) for j in model.robot.joints]
         meshes, notes, open_links, files = {}, {}, set(), {}
@@ -299,7 +299,7 @@ class Robot:
                 if is_open:
                     open_links.add(link.name)
         if not meshes:
-            raise SpecError(f"{path}: no link has collision geometry; nothing to check")
+            raise SpecError("no link has collision geometry; nothing to check", file=path)
         allowed = srdf_disabled_pairs(srdf) if srdf is not None else ()
         return cls(model.robot.name, joints, meshes, allowed, open_links, notes)
 
@@ -442,11 +442,11 @@ def _xml_root(path, what):
     from xml.etree import ElementTree
 
     if not path.is_file():
-        raise SpecError(f"{path}: no such {what} file")
+        raise SpecError(f"no such {what} file", file=path)
     try:
         return ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
-        raise SpecError(f"{path}: not readable XML ({exc})") from None
+        raise SpecError(f"not readable XML ({exc})", file=path) from None
 
 
 def srdf_disabled_pairs(path):
@@ -456,6 +456,6 @@ def srdf_disabled_pairs(path):
     for entry in _xml_root(path, "SRDF").iter("disable_collisions"):
         a, b = entry.get("link1"), entry.get("link2")
         if not a or not b:
-            raise SpecError(f"{path}: disable_collisions needs link1 and link2")
+            raise SpecError("disable_collisions needs link1 and link2", file=path)
         pairs.append((a, b, f"srdf: {entry.get('reason') or 'disabled'}"))
     return pairs

@@ -113,11 +113,11 @@ class Mesh:
         if faces.size == 0:
             faces = faces.reshape(0, 3)
         if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
-            raise InputError(f"faces: expected an (F, 3) array of vertex indices, got "
-                             f"shape {faces.shape} of {faces.dtype}")
+            raise InputError("expected an (F, 3) array of vertex indices, got "
+                             f"shape {faces.shape} of {faces.dtype}", key="faces")
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise InputError(f"faces: indices must lie in [0, {len(vertices) - 1}], "
-                             f"got [{faces.min()}, {faces.max()}]")
+            raise InputError(f"indices must lie in [0, {len(vertices) - 1}], "
+                             f"got [{faces.min()}, {faces.max()}]", key="faces")
         self._vertices = _frozen(vertices, np.float64)
         self._faces = _frozen(faces, np.int64)
         self._part_names = tuple(str(n) for n in part_names)
@@ -126,11 +126,11 @@ class Mesh:
         else:
             face_part = np.asarray(face_part)
             if face_part.shape != (len(faces),):
-                raise InputError(f"face_part: expected {len(faces)} part indices, "
-                                 f"got shape {face_part.shape}")
+                raise InputError(f"expected {len(faces)} part indices, "
+                                 f"got shape {face_part.shape}", key="face_part")
             names = len(self._part_names)
             if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
-                raise InputError("face_part: indices must point into part_names")
+                raise InputError("indices must point into part_names", key="face_part")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
@@ -216,8 +216,14 @@ class Mesh:
 
     @cached_property
     def volume(self):
-        """Signed volume by the divergence theorem: positive when faces point outward."""
-        t = self.triangles
+        """Signed volume by the divergence theorem: positive when faces point outward.
+
+        Summed about the vertices' mean, not the origin: far from the origin the
+        tetrahedra's volumes would be huge and cancel, losing every digit.
+        """
+        if len(self._faces) == 0:
+            return 0.0
+        t = self.triangles - self._vertices.mean(axis=0)
         return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property
@@ -337,14 +343,14 @@ class Mesh:
     def require_solid(self, name="mesh"):
         """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
         if not self.is_watertight:
-            raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
-                            "close the holes or repair it before using it as a solid")
+            raise MeshError("not a closed solid (open or non-manifold edges); "
+                            "close the holes or repair it before using it as a solid", part=name)
         if not self.is_winding_consistent:
-            raise MeshError(f"{name}: neighbouring faces disagree on orientation; "
-                            "make the winding consistent (e.g. trimesh's fix_normals)")
+            raise MeshError("neighbouring faces disagree on orientation; "
+                            "make the winding consistent (e.g. trimesh's fix_normals)", part=name)
         if self.volume <= 0:
-            raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
-                            "flip its faces")
+            raise MeshError(f"faces point inward (volume {self.volume:.6g}); "
+                            "flip its faces", part=name)
         return self
 
     # -- transforms -----------------------------------------------------------
@@ -414,9 +420,9 @@ class Mesh:
             tri_verts=self._faces.astype(np.uint64), **runs))
         status = solid.status()
         if status != manifold3d.Error.NoError:
-            raise MeshError(f"{name}: not a closed solid (manifold3d: {status.name}); it must "
+            raise MeshError(f"not a closed solid (manifold3d: {status.name}); it must "
                             "be a closed, consistently oriented surface: repair or close it "
-                            "first")
+                            "first", part=name)
         return solid
 
     @classmethod

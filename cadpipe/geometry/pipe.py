@@ -280,7 +280,8 @@ class Pipe:
                 raise GeometryError(f"the pipe intersects itself: {problems[0]}"
                                     + (f" (and {len(problems) - 1} more)" if len(problems) > 1
                                        else "")
-                                    + "; smooth the path, reduce the radius, or pass repair=True")
+                                    + "; smooth the path or reduce the radius, or repair it",
+                                    fix={"repair": True})
             return self._repaired_mesh()
         vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
         return Mesh.trusted(vertices, faces, attributes=self.attributes)
