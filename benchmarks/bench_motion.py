@@ -118,29 +118,36 @@ def part_motions(robot, world, loop, count, repeat, step):
           f"(cadpipe {seconds['cadpipe'] / count / dense:.3f}x of it)")
 
 
-def plan_with(robot, world, loop, validators, seconds=30.0):
+def plan_with(robot, world, loop, validators, seconds=60.0):
     """``(path, states, motions, plan seconds)`` of one RRTConnect plan."""
-    from ompl import base, geometric
+    from ompl import geometric
 
     from cadpipe import planning
 
     counter = planning.Counter()
     start = time.perf_counter()
     if validators == "cadpipe":
-        path = planning.plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds,
-                             counter=counter, step=0.5)
+        try:
+            path = planning.plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds,
+                                 counter=counter, step=0.5)
+        except planning.PlanningError:
+            path = None
         return path, counter.states, counter.motions, time.perf_counter() - start
-    simple = planning.setup(world, robot.name, counter, step=0.5)
-    information = simple.getSpaceInformation()
+    space, bounds = planning.joint_space(robot)
+    simple = geometric.SimpleSetup(space)
+    simple._keep = bounds                         # OMPL holds it by reference
     count = len(robot.actuated)
 
     def valid(state):
         counter.states += 1
         return not loop(np.array([state[k] for k in range(count)])[None])
 
-    simple.setStateValidityChecker(valid)
-    information.setMotionValidator(base.DiscreteMotionValidator(information))
+    simple.setStateValidityChecker(valid)          # OMPL's discrete motion validator stays
+    information = simple.getSpaceInformation()
     information.setStateValidityCheckingResolution(RESOLUTION)
+    planner = geometric.RRTConnect(information)
+    planner.setRange(0.5)
+    simple.setPlanner(planner)
     space = simple.getStateSpace()
     ends = []
     for q in (plan_panda.START, plan_panda.GOAL):
@@ -154,7 +161,6 @@ def plan_with(robot, world, loop, validators, seconds=30.0):
         return None, counter.states, 0, time.perf_counter() - start
     simple.simplifySolution()
     path = np.array([[s[k] for k in range(count)] for s in simple.getSolutionPath().getStates()])
-    del geometric
     return path, counter.states, 0, time.perf_counter() - start
 
 
@@ -176,7 +182,8 @@ def part_planning(robot, world, loop, plans):
                         ("fcl", "FCL loop + OMPL discrete motion validator")):
         r = rows[name]
         solved = [x for x in r if x[3] is not None]
-        print(f"  {label:44s} {len(solved) / sum(x[0] for x in r):6.3f} plans/s  "
+        print(f"  {label:44s} {len(solved)}/{len(r)} solved  "
+              f"{len(solved) / sum(x[0] for x in r):6.3f} plans/s  "
               f"median {np.median([x[0] for x in r]):6.2f} s  "
               f"validity calls {np.median([x[1] for x in r]):7.0f}  "
               f"colliding between states {sum(x[3] for x in solved)}/{len(solved)}")

@@ -93,6 +93,22 @@ def motion_validator(world, group, space_information, counter=None, tolerance=No
     return MotionValidator(space_information)
 
 
+def joint_space(robot):
+    """OMPL's ``RealVectorStateSpace`` of the robot's joint-limit box (continuous
+    joints span [-pi, pi]) and its bounds (keep both alive together)."""
+    base, _ = _ompl()
+    lower, upper = robot.limits
+    lower, upper = np.where(np.isfinite(lower), lower, -np.pi), \
+        np.where(np.isfinite(upper), upper, np.pi)
+    space = base.RealVectorStateSpace(len(lower))
+    bounds = base.RealVectorBounds(len(lower))
+    for k, (lo, hi) in enumerate(zip(lower, upper)):
+        bounds.setLow(k, float(lo))
+        bounds.setHigh(k, float(hi))
+    space.setBounds(bounds)
+    return space, bounds
+
+
 def setup(world, group, counter=None, planner="RRTConnect", step=None):
     """An ``ompl.geometric.SimpleSetup`` for robot ``group`` of ``world``: the
     joint-limit box as state space, cadpipe's state validity checker and
@@ -104,15 +120,7 @@ def setup(world, group, counter=None, planner="RRTConnect", step=None):
         raise InputError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}",
                          key="planner")
     robot, _ = world.robot(group)
-    lower, upper = robot.limits
-    lower, upper = np.where(np.isfinite(lower), lower, -np.pi), \
-        np.where(np.isfinite(upper), upper, np.pi)
-    space = base.RealVectorStateSpace(len(lower))
-    bounds = base.RealVectorBounds(len(lower))
-    for k, (lo, hi) in enumerate(zip(lower, upper)):
-        bounds.setLow(k, float(lo))
-        bounds.setHigh(k, float(hi))
-    space.setBounds(bounds)
+    space, bounds = joint_space(robot)
     simple = geometric.SimpleSetup(space)
     counter = Counter() if counter is None else counter
     simple.setStateValidityChecker(state_validity_checker(world, group, counter))
