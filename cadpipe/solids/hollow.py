@@ -63,7 +63,9 @@ def bore(pipe, wall, start="open", end="open"):
         tail = [path.points[-1] + extend[end] * path.directions[-1]] if extend[end] else []
         path = Path(np.vstack([*head, path.points, *tail]))
         radii = np.concatenate([radii[:len(head)], radii, radii[len(radii) - len(tail):]])
-    inner = pipe.replace(path=path, radius=radii, normal=pipe.normals[0])
+    # the path is already filleted: mitre it as it is, so rings and radii stay aligned
+    inner = pipe.replace(path=path, radius=radii, normal=pipe.normals[0], corners="miter",
+                         bend_radius=None)
     if path.closed or not (trim[start] or trim[end]):
         return inner
     if trim[start] + trim[end] >= path.length:
