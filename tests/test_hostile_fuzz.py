@@ -231,7 +231,7 @@ BASE_SPECS = [
                {"kind": "pipe", "radius": 0.05, "corners": "round",
                 "path": {"points": [[0, 0, 0], [0.5, 0.2, 0.3], [1, 0, 1]], "spline": True}}]},
 ]
-SPEC_VALUES = HOSTILE_NUMBERS + [-5, 3, 4096, 10 ** 6, "../../x", "\x00\x07", "", {},
+SPEC_VALUES = HOSTILE_NUMBERS + [-5, 3, 300, 10 ** 6, "../../x", "\x00\x07", "", {},
                                  {"a": 1}, [[0, 0, 0]], "round", "add", 1e-12, 0.5]
 
 
