@@ -101,7 +101,8 @@ CASES = [
     ("million-parts", ("build", "{}/spec.json", "-o", "{}/out/x.stl"),
      {"spec.json": '{"parts": [' + ",".join(['{"kind":"box","size":1}'] * 10 ** 6) + "]}"}),
     ("spline-4096-sides", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"),
-     {"spec.toml": toml_pipe("{points = [[0,0,0],[1,0,0],[1,1,0],[2,1,1]], spline = true}",
+     {"spec.toml": toml_pipe("{points = [[0,0,0],[1,0,0],[1,1,0],[2,1,1]], spline = true, "
+                             "step = 0.002}",
                              radius=0.01, extra="sides = 4096\n")}),
     ("csv-nan-first-row", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"),
      {"spec.toml": toml_pipe('"route.csv"'), "route.csv": "1,2,nan\n0,0,0\n1,0,0\n1,1,0\n"}),
