@@ -24,6 +24,7 @@ caller names another): absolute names, ``..`` and links that lead out are refuse
 
 import inspect
 import json
+import os
 import re
 import tomllib
 import typing
@@ -36,6 +37,9 @@ from cadpipe import limits
 from cadpipe._validate import as_choice, as_input_file
 from cadpipe.errors import CadpipeError, InputError, LimitError, SpecError, shown
 from cadpipe.solids.transform import as_matrix, placement
+
+if typing.TYPE_CHECKING:
+    from cadpipe.solids.assembly import Assembly
 
 #: annotation for a number in a part kind's signature (TOML and JSON keep ints apart)
 Number = int | float
@@ -392,9 +396,12 @@ def _allow(ctx, *, a: str, b: str, reason: str = "allowed in the spec"):
     return a, b, reason
 
 
-def _check(ctx, *, stop_after_self: bool = False, certify: bool = False):
-    """``[check]``: options of :meth:`cadpipe.CollisionWorld.check`."""
-    return {"stop_after_self": stop_after_self, "certify": certify}
+def _check(ctx, *, stop_after_self: bool = False, certify: bool = False,
+           first_hit: bool = False, only: str = ""):
+    """``[check]``: options of :meth:`cadpipe.CollisionWorld.check` (``only = ""``: every
+    pair)."""
+    return {"stop_after_self": stop_after_self, "certify": certify, "first_hit": first_hit,
+            "only": only or None}
 
 
 def _add_parts(ctx, assembly, parts):
@@ -513,6 +520,19 @@ def read(spec_path, *, output_folder=None, **budgets):
         raise exc.at(file=file) from exc.__cause__
 
 
-def load(spec_path, **options):
-    """The :class:`~cadpipe.Assembly` a spec file describes (options as :func:`read`)."""
+def load(spec_path: str | os.PathLike, **options: typing.Any) -> "Assembly":
+    """The :class:`~cadpipe.Assembly` a spec file describes.
+
+    Parameters
+    ----------
+    spec_path : str or path-like
+        The ``.toml`` or ``.json`` file (docs/spec.md).
+    **options
+        As for :func:`read`: ``output_folder``, ``max_triangles``, ``max_samples``,
+        ``max_parts``.
+
+    Returns
+    -------
+    assembly : Assembly
+    """
     return read(spec_path, **options).assembly
