@@ -20,7 +20,8 @@ def meters_per_unit(units):
     try:
         return UNITS[units]
     except KeyError:
-        raise InputError(f"expected one of {', '.join(UNITS)}, got {units!r}", key="units") from None
+        raise InputError(f"expected one of {', '.join(UNITS)}, got {units!r}",
+                         key="units") from None
 
 
 def parse_color(color):

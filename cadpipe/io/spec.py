@@ -338,7 +338,7 @@ def _parse(file):
     limits.check("max_number_chars", longest, "a number in this spec", file=file)
     depth = limits.current().max_depth
     # dotted keys nest without brackets, and tomllib takes quadratic time over them
-    if re.search(r"(?:[\w\"'-]+\s*\.\s*){%d}" % depth, text):
+    if re.search(r"(?:[\w\"'-]+\s*\.\s*)" + f"{{{depth}}}", text):
         limits.check("max_depth", depth + 1, "a dotted key in this spec", at_least=True,
                      file=file)
     try:
