@@ -11,6 +11,7 @@ start, so a transition never twists.
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe._vec import norm
 from cadpipe.errors import GeometryError, InputError
@@ -132,8 +133,10 @@ def _transition_tubes(tubes, before, after, sides):
     t1, t2 = lines.directions[:, end], lines.directions[:, start]
     chord = norm(s - e, 0)
     r1, r2 = tubes.ring_radii[end], tubes.ring_radii[start]
-    count = np.maximum(MIN_RINGS + 1,
-                       np.ceil(RINGS_PER_RADIUS * chord / np.minimum(r1, r2)).astype(np.int64))
+    rings = RINGS_PER_RADIUS * chord / np.minimum(r1, r2)
+    limits.check("max_triangles", float(np.sum(2 * rings * sides)),
+                 f"the transitions across gaps of up to {chord.max():.6g}", key="pipes")
+    count = np.maximum(MIN_RINGS + 1, np.ceil(rings).astype(np.int64))
     curves = Groups(count + 1)
     spread = curves.spread
     u = curves.local() * spread(1.0 / count)

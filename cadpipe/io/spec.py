@@ -336,6 +336,11 @@ def _parse(file):
                         f"byte {exc.start})", file=file) from None
     longest = max((len(m) for m in re.findall(r"[0-9][0-9_]*", text)), default=0)
     limits.check("max_number_chars", longest, "a number in this spec", file=file)
+    depth = limits.current().max_depth
+    # dotted keys nest without brackets, and tomllib takes quadratic time over them
+    if re.search(r"(?:[\w\"'-]+\s*\.\s*)" + f"{{{depth}}}", text):
+        limits.check("max_depth", depth + 1, "a dotted key in this spec", at_least=True,
+                     file=file)
     try:
         data = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
