@@ -11,8 +11,10 @@ Package layout (3MF core specification 1.3)::
     [Content_Types].xml
     _rels/.rels                  -> /3D/3dmodel.model
     3D/3dmodel.model             <model unit=...>: <basematerials> with one colour per
-                                 part name, one <object> per scene part (world
-                                 coordinates), one build <item> per object
+                                 part name (names unique), one <object> per scene
+                                 part (world coordinates) whose pid/pindex is its own
+                                 colour, one build <item> per object; triangles of a
+                                 part with several colours carry pid and p1
 
 Coordinates are written as float32 values with 9 significant digits, as an
 integer mantissa and exponent (``x="123456789e-9"``, a valid 3MF number): the
@@ -28,7 +30,7 @@ import numpy as np
 
 from cadpipe.errors import InputError
 from cadpipe.io.scene import as_scene
-from cadpipe.io.files import atomic_path
+from cadpipe.io.files import atomic_path, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.text import ascii_rows, float32_decimal
 
@@ -51,27 +53,31 @@ _RELS = (
     'Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>\n')
 _VERTEX = (b'<vertex x="', 0, b"e", 1, b'" y="', 2, b"e", 3, b'" z="', 4, b"e", 5, b'"/>\n')
 _TRIANGLE = (b'<triangle v1="', 0, b'" v2="', 1, b'" v3="', 2, b'"/>\n')
-_TRIANGLE_COLORED = _TRIANGLE[:-1] + (b'" p1="', 3, b'"/>\n')
+_TRIANGLE_COLORED = _TRIANGLE[:-1] + (b'" pid="1" p1="', 3, b'"/>\n')
 #: longest possible vertex or triangle row, in bytes (with 32-bit indices)
 _MAX_ROW_BYTES = 96
 #: rows formatted per chunk: bounds memory and lets compression overlap formatting
 _CHUNK = 1 << 16
 
 
-def write_3mf(obj, path, *, compresslevel=1):
+def write_3mf(obj, path, *, compresslevel=1, units=None):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as a 3MF package, atomically.
 
     Parameters
     ----------
     compresslevel : int
         Deflate level 1-9 of the model part (1: fastest; 9 saves about 15 %).
+    units : str, optional
+        Length unit of the file (the model's ``unit``); default: the scene's own.
     """
     scene = as_scene(obj)
-    if scene.units not in UNIT_NAMES:
-        raise InputError(f"units: 3MF knows {', '.join(UNIT_NAMES)}, got {scene.units!r}; "
+    units = units or scene.units
+    if units not in UNIT_NAMES:
+        raise InputError(f"units: 3MF knows {', '.join(UNIT_NAMES)}, got {units!r}; "
                          "convert the scene to one of them")
-    unit = UNIT_NAMES[scene.units]
-    parts = [(part.name, labelled(scene, part, world=True)) for part in scene.parts]
+    unit, scale = UNIT_NAMES[units], scene.scale_to(units)
+    parts = [(part.name, labelled(scene, part, world=True, scale=scale))
+             for part in scene.parts]
     with atomic_path(path) as tmp, \
             zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
         zf.writestr("[Content_Types].xml", _CONTENT_TYPES)
@@ -96,18 +102,26 @@ def _model_xml(scene, unit, parts):
     yield (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="{unit}" xml:lang="en-US" '
            f'xmlns="{_CORE}">\n<metadata name="Title">{_escape(scene.name)}</metadata>\n'
            '<metadata name="Application">cadpipe</metadata>\n<resources>\n').encode()
-    materials = {}                                  # (name, colour) -> base index
-    indices = []
-    for _, painted in parts:
-        keys = [(name, _hex(rgb)) for name, rgb in zip(painted.names, painted.colors)]
-        indices.append(np.array([materials.setdefault(k, len(materials)) for k in keys]))
+    materials, taken = {}, set()                    # (name, colour) -> (base index, name)
+    indices, own = [], []
+    for name, painted in parts:
+        keys = [(label, _hex(rgb)) for label, rgb in zip(painted.names, painted.colors)]
+        for key in keys:
+            if key not in materials:
+                materials[key] = (len(materials), unique_name(key[0], taken))
+        indices.append(np.array([materials[k][0] for k in keys]))
+        # the object's own colour: its own label's, else the one most of its faces have
+        mine = painted.names.index(name) if name in painted.names else \
+            int(np.bincount(painted.labels, minlength=len(keys)).argmax())
+        own.append(indices[-1][mine])
     yield b'<basematerials id="1">\n' + "".join(
-        f'<base name={quoteattr(name)} displaycolor="{color}"/>\n'
-        for name, color in materials).encode() + b"</basematerials>\n"
-    for object_id, ((name, painted), base) in enumerate(zip(parts, indices), start=2):
+        f'<base name={quoteattr(unique)} displaycolor="{color}"/>\n'
+        for (_, color), (_, unique) in materials.items()).encode() + b"</basematerials>\n"
+    for object_id, ((name, painted), base, pindex) in enumerate(zip(parts, indices, own),
+                                                                start=2):
         mesh = painted.mesh
         yield (f'<object id="{object_id}" type="model" name={quoteattr(name)} pid="1" '
-               f'pindex="{base[0]}">\n<mesh>\n<vertices>\n').encode()
+               f'pindex="{pindex}">\n<mesh>\n<vertices>\n').encode()
         mantissa, exponent = float32_decimal(mesh.vertices)
         yield from _rows(_VERTEX, np.stack([mantissa, exponent], axis=2).reshape(-1, 6))
         yield b"</vertices>\n<triangles>\n"
