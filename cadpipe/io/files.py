@@ -11,6 +11,7 @@ removes it.
 
 import fcntl
 import glob
+import inspect
 import os
 import tempfile
 import time
@@ -42,17 +43,46 @@ def unique_name(name, taken):
     return candidate
 
 
-def export(obj, path, **options):
+#: values of ``export(..., layout=)``
+LAYOUTS = ("scene", "print")
+
+
+def export(obj, path, *, layout="scene", **options):
     """Write a :class:`~cadpipe.Mesh` (or anything an exporter accepts) to ``path``.
 
-    Returns the path written. Raises :class:`InputError` for an unknown suffix and
-    :class:`ExportError` when the file cannot be written (no partial file remains).
+    Parameters
+    ----------
+    layout : {"scene", "print"}
+        "scene" writes the parts where they are; "print" lays every separate
+        body on a build plate first (:func:`cadpipe.io.scene.laid_out_for_print`:
+        on z = 0, side by side; one 3MF object per body).
+    **options
+        The format's own options (``units``, ``ascii``, ``crease_angle``, ...).
+
+    Returns the path written. Raises :class:`InputError` for an unknown suffix or
+    option and :class:`ExportError` when the file cannot be written (no partial
+    file remains).
     """
+    from cadpipe.io.scene import as_scene, laid_out_for_print
+
     key = suffix_of(path)
     if key not in exporters:
         raise InputError(f"{path}: unknown output format '.{key}'; supported: "
                          f"{', '.join('.' + n for n in exporters.names())}")
-    exporters.get(key)(obj, FilePath(path), **options)
+    if layout not in LAYOUTS:
+        raise InputError(f"expected one of {', '.join(LAYOUTS)}, got {layout!r}",
+                         key="layout")
+    if layout == "print":
+        obj = laid_out_for_print(as_scene(obj))
+    writer = exporters.get(key)
+    known = inspect.signature(writer).parameters
+    if not any(p.kind is p.VAR_KEYWORD for p in known.values()):
+        unknown = sorted(set(options) - set(known))
+        if unknown:
+            usable = [n for n, p in known.items() if p.kind is p.KEYWORD_ONLY]
+            raise InputError(f"'.{key}' files take no option {', '.join(unknown)}; "
+                             f"they take {', '.join(usable) or 'none'}", key=unknown[0])
+    writer(obj, FilePath(path), **options)
     return FilePath(path)
 
 

@@ -40,12 +40,15 @@ def labelled(scene, part, *, world=False, scale=1.0):
     if len(mesh.faces) == 0:
         raise InputError(f"part {part.name!r}: it has no triangles to export; "
                          "leave it out of the scene")
-    own = parse_color(part.color) if part.color is not None else DEFAULT_COLOR
+    def color_of(name):
+        if name == part.name and part.color is not None:
+            return parse_color(part.color)
+        return parse_color(scene.colors[name]) if name in scene.colors else DEFAULT_COLOR
+
     if mesh.face_part is None:
-        return Painted(mesh, np.zeros(len(mesh.faces), np.int32), (part.name,), np.array([own]))
-    colors = [own if n == part.name else
-              parse_color(scene.colors[n]) if n in scene.colors else DEFAULT_COLOR
-              for n in mesh.part_names]
+        return Painted(mesh, np.zeros(len(mesh.faces), np.int32), (part.name,),
+                       np.array([color_of(part.name)]))
+    colors = [color_of(n) for n in mesh.part_names]
     return Painted(mesh, mesh.face_part, mesh.part_names, np.array(colors).reshape(-1, 3))
 
 

@@ -176,3 +176,64 @@ def as_scene(obj, name="cadpipe"):
     part = mesh.attributes.get("kind", "mesh")
     return Scene(name=name, parts=(ScenePart(part, mesh, attributes=mesh.attributes),),
                  units=mesh.attributes.get("units", "m")).safe_names()
+
+
+#: space left between bodies laid out for printing, in metres
+PRINT_GAP = 0.005
+
+
+def laid_out_for_print(scene, gap=PRINT_GAP):
+    """``scene`` as a build plate: each separate body a part of its own, standing on
+    z = 0 and set beside the previous one along +X, ``gap`` metres apart.
+
+    Bodies whose boxes overlap (a shell inside another, parts hooked together)
+    stay together as they were. A body is named after the part most of its
+    faces came from (made unique). Rotations are left alone: each body prints
+    the way it stood in the scene.
+
+    Returns
+    -------
+    Scene
+        Untransformed parts in the scene's units and axes (Z up).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from cadpipe.geometry.mesh import Mesh
+    from cadpipe.io.files import unique_name
+
+    if str(scene.up_axis).upper() != "Z":
+        raise InputError("layout: a print layout needs a Z-up scene (the bed is z = 0)")
+    step = gap / scene.meters_per_unit
+    parts, taken, cursor = [], set(), 0.0
+    for part in scene.parts:
+        mesh = part.world_mesh()
+        if len(mesh.faces) == 0:
+            continue
+        face_body = np.unique(mesh.body_labels[mesh.faces[:, 0]], return_inverse=True)[1]
+        face_body = face_body.ravel()
+        count = int(face_body.max()) + 1
+        corners = mesh.triangles
+        lo = np.full((count, 3), np.inf)
+        hi = np.full((count, 3), -np.inf)
+        np.minimum.at(lo, face_body, corners.min(axis=1))
+        np.maximum.at(hi, face_body, corners.max(axis=1))
+        touching = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
+        _, group_of = connected_components(coo_matrix(touching), directed=False)
+        face_group = group_of[face_body]
+        for group in range(int(face_group.max()) + 1):
+            picked = face_group == group
+            used, faces = np.unique(mesh.faces[picked], return_inverse=True)
+            vertices = mesh.vertices[used]
+            low = vertices.min(axis=0)
+            vertices = vertices - [low[0] - cursor, low[1], low[2]]
+            cursor += float(np.ptp(vertices[:, 0])) + step
+            labels = None if mesh.face_part is None else mesh.face_part[picked]
+            body = Mesh.trusted(vertices, faces.reshape(-1, 3), face_part=labels,
+                                part_names=mesh.part_names, attributes=part.attributes)
+            name = part.name if labels is None else \
+                mesh.part_names[int(np.bincount(labels).argmax())]
+            color = scene.colors.get(name, part.color)
+            parts.append(ScenePart(unique_name(name, taken), body, color, None,
+                                   part.attributes))
+    return replace(scene, parts=tuple(parts))
