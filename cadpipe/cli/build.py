@@ -3,13 +3,13 @@
 Everything that can be checked before writing is: the spec, every part, the
 boolean, every output's format. Only then are files written, each atomically.
 Progress names the stage running (meshing each part, the union, each file):
-a bar on a terminal, one plain line per stage on stderr otherwise.
+a bar on stderr when it is a terminal, else one plain line per stage on stdout
+(so an error stays the one line on stderr).
 """
 
 from pathlib import Path as FilePath
 
-import sys
-
+from cadpipe import limits
 from cadpipe.cli import command
 from cadpipe.errors import CadpipeError, InputError
 from cadpipe.io.files import LAYOUTS
@@ -44,12 +44,12 @@ def build(args):
     outputs = [(FilePath(o), args.mode) for o in args.output] or \
         [(path, args.mode or mode) for path, mode in spec.outputs]
     if not outputs:
-        raise InputError(f"{args.spec}: nothing to write; pass -o FILE or list outputs "
-                         "in the spec")
+        raise InputError("nothing to write; pass -o FILE or list outputs in the spec",
+                         file=args.spec)
     for path, _ in outputs:
         if suffix_of(path) not in exporters:
-            raise InputError(f"{path}: unknown output format; supported: "
-                             f"{', '.join('.' + n for n in exporters.names())}")
+            raise InputError("unknown output format; supported: "
+                             f"{', '.join('.' + n for n in exporters.names())}", file=path)
         check_target(path)
 
     assembly = spec.assembly
@@ -72,9 +72,10 @@ def build(args):
                 stage(f"union of {count} part{'s' * (count != 1)}", 0, 1)
 
         try:
-            solid = assembly.union(progress=step)
-        except CadpipeError as exc:           # name the spec, as its reading errors do
-            raise type(exc)(f"{spec.file}: {exc}") from None
+            with limits.using(**spec.budgets):
+                solid = assembly.union(progress=step)
+        except CadpipeError as exc:           # at the part's key, as reading errors are
+            raise spec.locate(exc) from exc.__cause__
         for k, (path, mode) in enumerate(outputs, start=1):
             stage(f"writing {path.name}", k, len(outputs))
             ensure_folder(path.parent)
@@ -87,7 +88,8 @@ def build(args):
 
 
 class _Stages:
-    """``stage(text, done, total)``: a bar on a terminal, a line per new stage elsewhere."""
+    """``stage(text, done, total)``: a bar on a terminal, a line per new stage elsewhere
+    (on stdout: stderr holds only an error)."""
 
     def __init__(self, quiet):
         from rich.console import Console
@@ -121,5 +123,5 @@ class _Stages:
         kind = text.split()[0]
         if kind != self.last:        # a plain line per stage, not per part
             print(f"cadpipe build: {text}" + (f" ({done}/{total})" if kind == "writing" else ""),
-                  file=sys.stderr, flush=True)
+                  flush=True)
             self.last = kind if kind != "writing" else text

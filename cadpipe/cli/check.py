@@ -94,7 +94,7 @@ def format_report(name, report):
          + ", ".join(f"{v:.6g}" for v in high) + "]"),
         ("units", report["units"]),
         ("bodies", str(report["bodies"])),
-        ("self-intersections", str(report["self_intersections"])),
+        ("intersecting faces", str(report["intersecting_face_pairs"])),
         ("nested shells", str(report["nested_shells"])),
     ]
     lines = [f"{name}: {verdict}"] + [f"  {key:<20}{value}" for key, value in rows]

@@ -11,6 +11,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe._vec import cross
 from cadpipe.errors import InputError, MeshError
@@ -36,6 +37,50 @@ def winding_numbers(triangles, points, chunk=2_000_000):
                 + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
         out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
     return out
+
+
+def connected_labels(count, a, b):
+    """Connected-component label of each of ``count`` nodes linked by the pairs ``(a, b)``.
+
+    Parameters
+    ----------
+    count : int
+        Number of nodes.
+    a, b : (E,) int array
+        The links' ends.
+
+    Returns
+    -------
+    labels : (count,) int32
+        Equal labels for nodes joined by a chain of links (scipy's connected_components).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(count, count))
+    return connected_components(graph, directed=False)[1]
+
+
+def merge_tables(tables):
+    """The distinct entries of several label tables as one, in first-seen order.
+
+    Parameters
+    ----------
+    tables : sequence of sequences of hashable
+        Each mesh's (or part's) own labels: part names, ``(name, colour)`` pairs.
+
+    Returns
+    -------
+    merged : tuple
+        Every distinct entry once.
+    rows : list of (len(table),) int32 arrays
+        For each table, the row of ``merged`` each of its entries went to: relabel
+        faces with ``rows[k][labels]``.
+    """
+    index = {}
+    rows = [np.array([index.setdefault(k, len(index)) for k in t], np.int32).reshape(-1)
+            for t in tables]
+    return tuple(index), rows
 
 
 def _frozen(arr, dtype):
@@ -68,11 +113,11 @@ class Mesh:
         if faces.size == 0:
             faces = faces.reshape(0, 3)
         if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
-            raise InputError(f"faces: expected an (F, 3) array of vertex indices, got "
-                             f"shape {faces.shape} of {faces.dtype}")
+            raise InputError("expected an (F, 3) array of vertex indices, got "
+                             f"shape {faces.shape} of {faces.dtype}", key="faces")
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise InputError(f"faces: indices must lie in [0, {len(vertices) - 1}], "
-                             f"got [{faces.min()}, {faces.max()}]")
+            raise InputError(f"indices must lie in [0, {len(vertices) - 1}], "
+                             f"got [{faces.min()}, {faces.max()}]", key="faces")
         self._vertices = _frozen(vertices, np.float64)
         self._faces = _frozen(faces, np.int64)
         self._part_names = tuple(str(n) for n in part_names)
@@ -81,11 +126,11 @@ class Mesh:
         else:
             face_part = np.asarray(face_part)
             if face_part.shape != (len(faces),):
-                raise InputError(f"face_part: expected {len(faces)} part indices, "
-                                 f"got shape {face_part.shape}")
+                raise InputError(f"expected {len(faces)} part indices, "
+                                 f"got shape {face_part.shape}", key="face_part")
             names = len(self._part_names)
             if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
-                raise InputError("face_part: indices must point into part_names")
+                raise InputError("indices must point into part_names", key="face_part")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
@@ -171,8 +216,14 @@ class Mesh:
 
     @cached_property
     def volume(self):
-        """Signed volume by the divergence theorem: positive when faces point outward."""
-        t = self.triangles
+        """Signed volume by the divergence theorem: positive when faces point outward.
+
+        Summed about the vertices' mean, not the origin: far from the origin the
+        tetrahedra's volumes would be huge and cancel, losing every digit.
+        """
+        if len(self._faces) == 0:
+            return 0.0
+        t = self.triangles - self._vertices.mean(axis=0)
         return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property
@@ -184,50 +235,84 @@ class Mesh:
 
     # -- topology -------------------------------------------------------------
     @cached_property
-    def _edge_counts(self):
-        """Occurrences of each directed edge and of its reverse."""
-        f = self._faces
-        a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
-        b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-        n = max(len(self._vertices), 1)
-        keys = a * n + b
-        unique, counts = np.unique(keys, return_counts=True)
-        reverse = (unique % n) * n + unique // n
-        pos = np.searchsorted(unique, reverse).clip(0, len(unique) - 1)
-        reverse_counts = np.where(unique[pos] == reverse, counts[pos], 0) if len(unique) else counts
-        return counts, reverse_counts
+    def edges(self):
+        """(3F, 2) int64 directed edges: row ``3f + k`` runs from corner k of face f to
+        corner k + 1, as trimesh's ``edges``."""
+        return self._faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+
+    def edge_keys(self, a, b):
+        """One int64 key per undirected edge ``(a, b)``, the same whichever way round.
+
+        Parameters
+        ----------
+        a, b : (E,) int array_like
+            Vertex indices of each edge's ends.
+
+        Returns
+        -------
+        keys : (E,) int64
+            ``min * V + max``: equal keys are the same edge; sorted keys sort the
+            edges as :attr:`edges_unique` does.
+        """
+        a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
+        return np.minimum(a, b) * max(len(self._vertices), 1) + np.maximum(a, b)
+
+    @cached_property
+    def _unique_edges(self):
+        """Sorted undirected edge keys, each directed edge's row among them, and counts."""
+        e = self.edges
+        return np.unique(self.edge_keys(e[:, 0], e[:, 1]), return_inverse=True,
+                         return_counts=True)
+
+    @property
+    def edges_unique(self):
+        """(E, 2) int64 undirected edges ``(low, high)``, sorted, each once."""
+        return np.stack(np.divmod(self._unique_edges[0], max(len(self._vertices), 1)), axis=1)
+
+    @property
+    def edges_unique_inverse(self):
+        """(3F,) int64 row of :attr:`edges_unique` for each row of :attr:`edges`."""
+        return self._unique_edges[1].reshape(-1)
+
+    @property
+    def edge_face_counts(self):
+        """(E,) int64 faces on each of :attr:`edges_unique` (1: a hole's rim, > 2:
+        non-manifold)."""
+        return self._unique_edges[2]
+
+    def edge_index(self, a, b):
+        """(E,) row of :attr:`edges_unique` of each undirected edge ``(a, b)`` of the mesh."""
+        return np.searchsorted(self._unique_edges[0], self.edge_keys(a, b))
 
     @cached_property
     def is_watertight(self):
-        """Every edge is shared by exactly two faces, traversed once in each direction."""
-        if len(self._faces) == 0:
-            return False
-        counts, reverse_counts = self._edge_counts
-        return bool(np.all(counts == 1) and np.all(reverse_counts == 1))
+        """Closed: every edge is shared by exactly two faces (trimesh's meaning; the
+        faces' winding is not looked at, see :attr:`is_oriented`)."""
+        return bool(len(self._faces) and np.all(self.edge_face_counts == 2))
 
     @cached_property
     def is_winding_consistent(self):
-        """No edge is traversed twice in the same direction."""
-        counts, _ = self._edge_counts
-        return bool(np.all(counts == 1))
+        """No edge is traversed twice in the same direction: neighbouring faces agree."""
+        e, (_, row, counts) = self.edges, self._unique_edges
+        forward = np.bincount(row.reshape(-1), weights=e[:, 0] < e[:, 1], minlength=len(counts))
+        return bool(np.all(forward <= 1) and np.all(counts - forward <= 1))
+
+    @cached_property
+    def is_oriented(self):
+        """Closed and consistently wound: every edge is traversed once each way, so the
+        surface has a well-defined inside (what manifold3d and booleans need)."""
+        return self.is_watertight and self.is_winding_consistent
 
     @cached_property
     def is_outward(self):
-        """Closed, consistently wound and with positive volume."""
-        return self.is_watertight and self.volume > 0
+        """Oriented with positive volume: a solid whose normals point out."""
+        return self.is_oriented and self.volume > 0
 
     @cached_property
     def body_labels(self):
         """(V,) connected-component label of each vertex."""
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        f = self._faces
-        n = len(self._vertices)
-        rows = np.concatenate([f[:, 0], f[:, 1]])
-        cols = np.concatenate([f[:, 1], f[:, 2]])
-        graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n, n))
-        return connected_components(graph, directed=False)[1]
+        e = self.edges
+        return connected_labels(len(self._vertices), e[:, 0], e[:, 1])
 
     @cached_property
     def n_bodies(self):
@@ -238,10 +323,9 @@ class Mesh:
 
     @cached_property
     def euler_characteristic(self):
+        """V - E + F over the vertices that faces use (2 per sphere-like body)."""
         used = len(np.unique(self._faces))
-        edges = len(np.unique(np.sort(self._faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1),
-                              axis=0))
-        return int(used - edges + len(self._faces))
+        return int(used - len(self.edge_face_counts) + len(self._faces))
 
     @cached_property
     def genus(self):
@@ -259,19 +343,22 @@ class Mesh:
     def require_solid(self, name="mesh"):
         """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
         if not self.is_watertight:
-            raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
-                            "close the holes or repair it before using it as a solid")
+            raise MeshError("not a closed solid (open or non-manifold edges); "
+                            "close the holes or repair it before using it as a solid", part=name)
+        if not self.is_winding_consistent:
+            raise MeshError("neighbouring faces disagree on orientation; "
+                            "make the winding consistent (e.g. trimesh's fix_normals)", part=name)
         if self.volume <= 0:
-            raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
-                            "flip its faces")
+            raise MeshError(f"faces point inward (volume {self.volume:.6g}); "
+                            "flip its faces", part=name)
         return self
 
     # -- transforms -----------------------------------------------------------
     def transformed(self, matrix):
         """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors)."""
-        matrix = np.asarray(matrix, dtype=np.float64)
-        if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {matrix.shape}")
+        from cadpipe.solids.transform import as_matrix
+
+        matrix = as_matrix(matrix)
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
         return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
@@ -283,15 +370,10 @@ class Mesh:
         meshes = list(meshes)
         if not meshes:
             raise InputError("concatenate: expected at least one mesh")
-        names, index = [], {}
         offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
-        face_parts = []
-        for i, m in enumerate(meshes):
-            own = m.part_names or (f"part{i}",)
-            ids = np.array([index.setdefault(n, len(index)) for n in own], np.int32)
-            names = list(index)
-            fp = m.face_part if m.face_part is not None else np.zeros(len(m.faces), np.int32)
-            face_parts.append(ids[fp])
+        names, rows = merge_tables([m.part_names or (f"part{i}",) for i, m in enumerate(meshes)])
+        face_parts = [r[m.face_part if m.face_part is not None else np.zeros(len(m.faces), int)]
+                      for m, r in zip(meshes, rows)]
         return Mesh(np.concatenate([m.vertices for m in meshes]),
                     np.concatenate([m.faces + o for m, o in zip(meshes, offsets)]),
                     face_part=np.concatenate(face_parts), part_names=names)
@@ -307,22 +389,67 @@ class Mesh:
     def from_trimesh(cls, tm, **kwargs):
         return cls(tm.vertices, tm.faces, **kwargs)
 
-    def to_manifold(self, name="mesh"):
-        """A :class:`manifold3d.Manifold`; raises :class:`MeshError` if it rejects the mesh."""
+    def to_manifold(self, name="mesh", original_id=None):
+        """This mesh as a :class:`manifold3d.Manifold`.
+
+        Parameters
+        ----------
+        name : str
+            What to call the mesh in the error.
+        original_id : int, optional
+            manifold3d original id to tag every triangle with (see
+            :func:`cadpipe.solids.booleans.reserve_ids`), so a boolean's output faces
+            still know their part.
+
+        Returns
+        -------
+        solid : manifold3d.Manifold
+
+        Raises
+        ------
+        MeshError
+            When manifold3d rejects the mesh (not a closed, oriented 2-manifold).
+        """
         import manifold3d
 
-        mesh = manifold3d.Mesh64(vert_properties=np.array(self._vertices),  # writeable copy
-                                 tri_verts=self._faces.astype(np.uint64))
-        solid = manifold3d.Manifold(mesh)
+        runs = {} if original_id is None else {
+            "run_index": np.array([0, self._faces.size], np.uint64),
+            "run_original_id": np.array([original_id], np.uint32)}
+        solid = manifold3d.Manifold(manifold3d.Mesh64(
+            vert_properties=np.array(self._vertices),                # a writeable copy
+            tri_verts=self._faces.astype(np.uint64), **runs))
         status = solid.status()
         if status != manifold3d.Error.NoError:
-            raise MeshError(f"{name}: manifold3d rejected the mesh ({status.name}); "
-                            "it must be a closed, oriented 2-manifold")
+            raise MeshError(f"not a closed solid (manifold3d: {status.name}); it must "
+                            "be a closed, consistently oriented surface: repair or close it "
+                            "first", part=name)
         return solid
 
     @classmethod
-    def from_manifold(cls, solid, part_names=None, **kwargs):
-        """Convert a manifold3d result; ``part_names`` maps original ids to part names."""
+    def from_manifold(cls, solid, part_of_id=None, *, part_names=None, **kwargs):
+        """A mesh of a manifold3d solid, its faces labelled by the part they came from.
+
+        Parameters
+        ----------
+        solid : manifold3d.Manifold
+        part_of_id : mapping of int to str, optional
+            Part name of each manifold3d original id (as tagged by
+            :meth:`to_manifold`); the result's :attr:`part_names` are the names of
+            the parts that still have faces, in the mapping's order.
+        part_names : mapping, optional
+            Deprecated name of ``part_of_id``.
+        **kwargs
+            Other :class:`Mesh` arguments (``attributes``).
+
+        Returns
+        -------
+        mesh : Mesh
+            Vertices welded where manifold3d split them between triangle runs.
+        """
+        if part_names is not None:
+            _deprecated.warn("Mesh.from_manifold(part_names=...)",
+                             "Mesh.from_manifold(part_of_id=...)")
+            part_of_id = part_names
         m = solid.to_mesh64()
         vertices = np.asarray(m.vert_properties)[:, :3]
         faces = np.asarray(m.tri_verts, dtype=np.int64)
@@ -333,17 +460,17 @@ class Mesh:
             target[merge_from] = np.asarray(m.merge_to_vert, dtype=np.int64)
             used, faces = np.unique(target[faces], return_inverse=True)
             vertices, faces = vertices[used], faces.reshape(-1, 3)
-        if not part_names:
+        if not part_of_id:
             return cls(vertices, faces, **kwargs)
         run_ids = [int(i) for i in m.run_original_id]
-        unknown = [i for i in run_ids if i not in part_names]
+        unknown = [i for i in run_ids if i not in part_of_id]
         if unknown:
             raise MeshError(f"boolean result has triangles from an unknown part (id {unknown[0]})")
         counts = np.diff(np.asarray(m.run_index, dtype=np.int64)) // 3
-        run_names = [part_names[i] for i in run_ids]
+        run_names = [part_of_id[i] for i in run_ids]
         # only the parts that still have triangles label this mesh
         present = {n for n, c in zip(run_names, counts) if c}
-        names = [n for n in dict.fromkeys(part_names.values()) if n in present]
+        names = [n for n in dict.fromkeys(part_of_id.values()) if n in present]
         index = {n: k for k, n in enumerate(names)}
         face_part = np.repeat([index.get(n, -1) for n in run_names], counts).astype(np.int32)
         return cls(vertices, faces, face_part=face_part, part_names=names, **kwargs)

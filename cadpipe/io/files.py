@@ -193,10 +193,13 @@ def load_scene(path):
     attributes say ``units_assumed``. Raises :class:`ExportError` for a missing
     file and :class:`MeshError` for one that holds no triangles.
     """
-    path = FilePath(path)
-    if not path.is_file():
-        raise ExportError("is a folder, not a mesh file" if path.is_dir() else "no such file",
-                          file=path)
+    from cadpipe import limits
+    from cadpipe._validate import as_input_file
+
+    path = as_input_file(path, "mesh file")     # a FIFO or device is never opened
+    limits.check_archive(path)                  # 3MF, USDZ: refuse a zip bomb unopened
+    if path.suffix.lower() == ".stl":           # 50 bytes a triangle in binary, more in text
+        limits.check("max_triangles", path.stat().st_size / 50, "this STL file", file=path)
     key = path.suffix.lower().lstrip(".")
     if key == "glb":
         from cadpipe.io.gltf import read_glb
@@ -212,6 +215,8 @@ def load_scene(path):
         scene = read_obj(path)
     else:
         scene = _trimesh_scene(path, key)
+    limits.check("max_triangles", sum(len(p.mesh.faces) for p in scene.parts),
+                 "this mesh file", file=path)
     return replace(scene, parts=tuple(replace(p, mesh=welded(p.mesh)) for p in scene.parts))
 
 
@@ -220,10 +225,13 @@ def file_mesh(vertices, faces, path, name, **options):
     (naming the file and part) for non-finite coordinates or bad face indices."""
     from cadpipe.geometry.mesh import Mesh
 
+    from cadpipe._validate import MAX_MAGNITUDE
+
     vertices = np.asarray(vertices, dtype=np.float64)
-    if not np.isfinite(vertices).all():
-        raise MeshError(f"part {name!r}: some vertex coordinates are NaN or infinite; "
-                        "the file is corrupt", file=path, part=name)
+    if not (np.abs(vertices) <= MAX_MAGNITUDE).all():
+        raise MeshError(f"part {name!r}: some vertex coordinates are NaN or infinite "
+                        f"(or beyond {MAX_MAGNITUDE:g}); the file is corrupt", file=path,
+                        part=name)
     try:
         return Mesh(vertices, faces, **options)
     except InputError as exc:

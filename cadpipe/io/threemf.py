@@ -29,6 +29,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from cadpipe.errors import InputError
+from cadpipe.geometry.mesh import merge_tables
 from cadpipe.io.scene import as_scene
 from cadpipe.io.files import atomic_path, unique_name
 from cadpipe.io.flatten import labelled
@@ -102,21 +103,18 @@ def _model_xml(scene, unit, parts):
     yield (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="{unit}" xml:lang="en-US" '
            f'xmlns="{_CORE}">\n<metadata name="Title">{_escape(scene.name)}</metadata>\n'
            '<metadata name="Application">cadpipe</metadata>\n<resources>\n').encode()
-    materials, taken = {}, set()                    # (name, colour) -> (base index, name)
-    indices, own = [], []
-    for name, painted in parts:
-        keys = [(label, _hex(rgb)) for label, rgb in zip(painted.names, painted.colors)]
-        for key in keys:
-            if key not in materials:
-                materials[key] = (len(materials), unique_name(key[0], taken))
-        indices.append(np.array([materials[k][0] for k in keys]))
-        # the object's own colour: its own label's, else the one most of its faces have
-        mine = painted.names.index(name) if name in painted.names else \
-            int(np.bincount(painted.labels, minlength=len(keys)).argmax())
-        own.append(indices[-1][mine])
+    materials, indices = merge_tables([[(name, _hex(rgb)) for name, rgb in
+                                         zip(painted.names, painted.colors)]
+                                        for _, painted in parts])   # (name, colour) -> base
+    taken = set()
+    unique = [unique_name(label, taken) for label, _ in materials]  # names repeat by colour
+    # each object's own colour: its own label's, else the one most of its faces have
+    own = [base[painted.names.index(name)] if name in painted.names else
+           base[int(np.bincount(painted.labels, minlength=len(base)).argmax())]
+           for (name, painted), base in zip(parts, indices)]
     yield b'<basematerials id="1">\n' + "".join(
-        f'<base name={quoteattr(unique)} displaycolor="{color}"/>\n'
-        for (_, color), (_, unique) in materials.items()).encode() + b"</basematerials>\n"
+        f'<base name={quoteattr(label)} displaycolor="{color}"/>\n'
+        for label, (_, color) in zip(unique, materials)).encode() + b"</basematerials>\n"
     for object_id, ((name, painted), base, pindex) in enumerate(zip(parts, indices, own),
                                                                 start=2):
         mesh = painted.mesh

@@ -26,9 +26,6 @@ from cadpipe.io.flatten import flatten, labelled
 from cadpipe.io.scene import as_scene
 from cadpipe.io.text import ascii_rows, float32_decimal
 
-# GLB moved to cadpipe.io.gltf; installs made before then find it here by entry point
-from cadpipe.io.gltf import write_glb  # noqa: E402, F401
-
 _OBJ_VERTEX = (b"v ", 0, b"e", 1, b" ", 2, b"e", 3, b" ", 4, b"e", 5, b"\n")
 _OBJ_FACE = (b"f ", 0, b" ", 1, b" ", 2, b"\n")
 _PLY_VERTEX = (0, b"e", 1, b" ", 2, b"e", 3, b" ", 4, b"e", 5, b" ", 6, b" ", 7, b" ", 8, b"\n")

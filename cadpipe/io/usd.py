@@ -53,12 +53,16 @@ def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_ax
     up_axis : {"Y", "Z"}, optional
         The stage's up axis; default "Y" for .usdz (AR), else the scene's.
     """
+    scene = as_scene(obj).in_units(units)
+    up = up_axis or ("Y" if suffix_of(path) == "usdz" else scene.up_axis)
+    save_stage(build_stage(scene, crease_angle=crease_angle, up_axis=up), path)
+
+
+def save_stage(stage, path):
+    """Write an in-memory stage to ``path`` (.usda, .usdc or .usdz), atomically."""
     from pxr import Sdf, UsdUtils
 
     kind = suffix_of(path)
-    scene = as_scene(obj).in_units(units)
-    stage = build_stage(scene, crease_angle=crease_angle,
-                        up_axis=up_axis or ("Y" if kind == "usdz" else scene.up_axis))
     with atomic_path(path) as tmp:
         if kind != "usdz":
             if not stage.GetRootLayer().Export(str(tmp)):
