@@ -45,13 +45,15 @@ def gltf_root(scene):
     return matrix
 
 
-def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m"):
+def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normals=True):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as binary glTF, atomically.
 
     Parameters
     ----------
     crease_angle : float
         Degrees: faces meeting at a sharper angle shade with a hard edge.
+    normals : bool
+        Write shading normals (glTF viewers draw a mesh without them faceted).
     units : str
         Must be "m": glTF is in metres by definition (the root node scales
         the scene's own units to metres).
@@ -66,15 +68,21 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m"):
     node_names = set()
     for part in scene.parts:
         painted = labelled(scene, part)
-        vertices, faces, normals = split_for_normals(painted.mesh, crease_angle)
+        if normals:
+            vertices, faces, shading = split_for_normals(painted.mesh, crease_angle)
+        else:
+            vertices, faces = painted.mesh.vertices, painted.mesh.faces
         name = unique_name(part.name, node_names)
-        position = doc.accessor(vertices.astype(np.float32), "VEC3", _ARRAY_BUFFER, bounds=True)
-        normal = doc.accessor(normals.astype(np.float32), "VEC3", _ARRAY_BUFFER)
+        attributes = {"POSITION": doc.accessor(vertices.astype(np.float32), "VEC3",
+                                               _ARRAY_BUFFER, bounds=True)}
+        if normals:
+            attributes["NORMAL"] = doc.accessor(shading.astype(np.float32), "VEC3",
+                                                _ARRAY_BUFFER)
         primitives = []
         for label_group, rgb in _colour_groups(painted):
             picked = faces[np.isin(painted.labels, label_group)]
             primitives.append({
-                "attributes": {"POSITION": position, "NORMAL": normal},
+                "attributes": attributes,
                 "indices": doc.accessor(picked.astype(np.uint32).ravel(), "SCALAR",
                                         _ELEMENT_ARRAY_BUFFER),
                 "material": doc.material(painted.names[label_group[0]], rgb),

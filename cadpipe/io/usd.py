@@ -40,7 +40,8 @@ from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import DEFAULT_CREASE_ANGLE, shading_normals
 
 
-def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_axis=None):
+def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_axis=None,
+              normals=True):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as .usda, .usdc or .usdz, atomically.
 
     Parameters
@@ -52,10 +53,14 @@ def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_ax
         Length unit of the stage (``metersPerUnit``); default: the scene's own.
     up_axis : {"Y", "Z"}, optional
         The stage's up axis; default "Y" for .usdz (AR), else the scene's.
+    normals : bool
+        Write shading normals; without them a renderer shades the (unsubdivided)
+        mesh by its faces.
     """
     scene = as_scene(obj).in_units(units)
     up = up_axis or ("Y" if suffix_of(path) == "usdz" else scene.up_axis)
-    save_stage(build_stage(scene, crease_angle=crease_angle, up_axis=up), path)
+    save_stage(build_stage(scene, crease_angle=crease_angle, up_axis=up, normals=normals),
+               path)
 
 
 def save_stage(stage, path):
@@ -77,11 +82,12 @@ def save_stage(stage, path):
                 raise ExportError(f"{path}: usd-core could not package the .usdz")
 
 
-def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE, up_axis=None):
+def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE, up_axis=None, normals=True):
     """An in-memory :class:`pxr.Usd.Stage` holding ``scene`` (see the module docstring).
 
     ``up_axis`` ("Y" or "Z", default the scene's) is the stage's; a Z-up scene on
-    a Y-up stage is turned upright by its root prim's transform.
+    a Y-up stage is turned upright by its root prim's transform. ``normals=False``
+    leaves shading normals out.
     """
     from pxr import Kind, Usd, UsdGeom
 
@@ -112,7 +118,7 @@ def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE, up_axis=None):
         _set_custom_attributes(xform.GetPrim(), part.attributes)
         painted = labelled(scene, part)
         geom = _define_mesh(stage, xform.GetPath().AppendChild(prim_name), painted,
-                            crease_angle)
+                            crease_angle if normals else None)
         _bind_materials(geom, painted, materials)
     return stage
 
@@ -149,15 +155,14 @@ def _define_mesh(stage, prim_path, painted, crease_angle):
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
-    shading = shading_normals(mesh, crease_angle)
-    normals = Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32))
-    if shading.per_vertex:
-        geom.CreateNormalsAttr(normals)
+    shading = None if crease_angle is None else shading_normals(mesh, crease_angle)
+    if shading is not None and shading.per_vertex:
+        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
         geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
-    else:   # creases: an indexed primvar (one normal per vertex plus a few, not per corner)
+    elif shading is not None:   # creases: indexed (a normal per vertex plus a few per crease)
         primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
             "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
-        primvar.Set(normals)
+        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
         primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32)))
     if len(colors) == 1:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
