@@ -9,16 +9,18 @@ boxes in one file are two solids, not one; a cavity, an inward shell inside an
 outward one, is fine).
 """
 
+from typing import Any
+
 import numpy as np
 
-from cadpipe.geometry.mesh import winding_numbers
+from cadpipe.geometry.mesh import Mesh, winding_numbers
 from cadpipe.solids.intersect import self_intersections
 
 #: most vertices of a shell probed against another shell (those within its box)
 _PROBES = 64
 
 
-def nested_shells(mesh):
+def nested_shells(mesh: Mesh) -> np.ndarray:
     """(K,) int array of the shells (bodies) of ``mesh`` that lie where they should not.
 
     Inside a valid solid every point is covered once: the winding number of the
@@ -59,8 +61,17 @@ def nested_shells(mesh):
     return np.array(wrong, dtype=np.int64)
 
 
-def check_mesh(mesh):
+def check_mesh(mesh: Mesh) -> dict[str, Any]:
     """A report on ``mesh`` as a dict of plain values (JSON-ready).
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    report : dict
+        The keys below.
 
     Keys: ``valid`` (a closed, consistently wound, outward, non-self-intersecting
     solid), ``problems`` (one sentence per failed check), ``triangles``,
