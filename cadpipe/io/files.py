@@ -239,15 +239,17 @@ def file_mesh(vertices, faces, path, name, **options):
 
 
 def welded(mesh):
-    """``mesh`` with exact duplicate vertices made one (and unused ones dropped).
+    """``mesh`` with duplicate vertices (equal to 8 decimals) made one.
 
     Files store a vertex once per triangle (STL) or once per normal or colour
     (GLB, PLY); the solid is the same surface with shared corners.
     """
     from cadpipe.geometry.mesh import Mesh
 
-    rows = np.ascontiguousarray(mesh.vertices + 0.0)        # -0.0 and 0.0 alike
-    keys = rows.view(np.dtype((np.void, rows.itemsize * 3))).ravel()
+    rows = np.ascontiguousarray(mesh.vertices)
+    # keyed to 8 decimals, as trimesh's merge_vertices: text formats round, -0.0 is 0.0
+    rounded = np.ascontiguousarray(np.round(rows, 8) + 0.0)
+    keys = rounded.view(np.dtype((np.void, rounded.itemsize * 3))).ravel()
     unique, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
     if len(unique) == len(rows):
         return mesh
