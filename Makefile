@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= out/demo
 
-.PHONY: demo test bench clean chromium
+.PHONY: demo test bench clean chromium consumers
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -17,7 +17,7 @@ demo: $(STAMP)
 	$(VENV)/bin/cadpipe demo -o $(OUT)
 
 # ruff's rule set is in pyproject.toml; slow cases run too, spread over the cores
-test: $(STAMP) chromium
+test: $(STAMP) chromium consumers
 	$(VENV)/bin/ruff check cadpipe
 	$(PY) -m pytest -n auto
 
@@ -28,5 +28,17 @@ bench: $(STAMP)
 chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
 
+# the programs tests/test_consumers.py opens cadpipe's files with: PrusaSlicer (Debian,
+# needs root to install) and the Khronos glTF validator (npm, into .tools/); lib3mf and
+# usd-core come with the test extra
+GLTF_VALIDATOR := .tools/node_modules/gltf-validator/package.json
+consumers: $(GLTF_VALIDATOR)
+	command -v prusa-slicer >/dev/null || (apt-get update && \
+		apt-get install -y --no-install-recommends prusa-slicer)
+
+$(GLTF_VALIDATOR):
+	command -v node >/dev/null || (apt-get update && apt-get install -y nodejs npm)
+	npm install --silent --prefix .tools gltf-validator@2.0.0-dev.3.10
+
 clean:
-	rm -rf $(VENV) out .pytest_cache .hypothesis
+	rm -rf $(VENV) out .tools .pytest_cache .hypothesis

@@ -116,8 +116,9 @@ def test_export_writes_the_unioned_solid_to_stl(tmp_path):
     a, b = through_centre((1, 0, 0), 0.1), through_centre((0, 1, 0), 0.1)
     asm = Assembly().add("a", a).add("b", b)
     path = asm.export(tmp_path / "cell.stl")
-    back = cadpipe.Mesh.load(path)
-    assert back.is_watertight and back.volume == pytest.approx(asm.union().volume, rel=1e-6)
+    back = cadpipe.Mesh.load(path)                      # STL is in millimetres
+    assert back.is_watertight and back.volume * 1e-9 == pytest.approx(asm.union().volume,
+                                                                      rel=1e-6)
 
 
 def test_assembly_results_are_cached_and_reset_by_new_parts():

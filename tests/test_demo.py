@@ -77,4 +77,4 @@ def test_demo_command_prints_a_summary(tmp_path, capsys):
     assert main(["demo", "-o", str(tmp_path / "d")]) == 0
     out = capsys.readouterr().out
     assert "COLLISION  tool <-> workpiece" in out
-    assert "wrote 8 files" in out
+    assert "wrote 9 files" in out

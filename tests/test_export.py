@@ -22,7 +22,7 @@ from cadpipe.io.files import export
 from cadpipe.io.normals import shading_normals, split_for_normals
 from cadpipe.io.stl import write_stl
 from cadpipe.io.text import ascii_rows, float32_decimal
-from cadpipe.io.trimesh_formats import gltf_root
+from cadpipe.io.gltf import gltf_root
 from cadpipe.io.scene import Scene, ScenePart, as_scene
 
 BUILT_IN = ("stl", "usda", "usdc", "usdz", "3mf", "glb", "obj", "ply")
@@ -101,12 +101,18 @@ def test_usd_passes_validation_and_reopens_as_written(tmp_path, scene, usd_valid
     issues = [f"{e.GetName()}: {e.GetMessage()}" for e in usd_validation.Validate(stage)]
     assert issues == []
 
-    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.z
+    # a .usdz is for AR Quick Look, which wants Y up: the root prim turns the Z-up scene
+    up = UsdGeom.Tokens.y if suffix == "usdz" else UsdGeom.Tokens.z
+    assert UsdGeom.GetStageUpAxis(stage) == up
+    turn = np.eye(4)
+    if suffix == "usdz":
+        turn[:3, :3] = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]
     assert UsdGeom.GetStageMetersPerUnit(stage) == pytest.approx(0.001)
     assert stage.GetDefaultPrim().GetPath() == "/work_cell"
     assert Usd.ModelAPI(stage.GetDefaultPrim()).GetKind() == "assembly"
     for part, prim_name in zip(scene.parts, ["plain_pipe", "union"]):
-        geom = UsdGeom.Mesh(stage.GetPrimAtPath(f"/work_cell/{prim_name}/Mesh"))
+        # the leaf mesh is named after its part: Blender names its object by it
+        geom = UsdGeom.Mesh(stage.GetPrimAtPath(f"/work_cell/{prim_name}/{prim_name}"))
         assert geom, f"missing mesh of {prim_name}"
         points = np.asarray(geom.GetPointsAttr().Get())
         assert len(points) == len(part.mesh.vertices)
@@ -123,12 +129,12 @@ def test_usd_passes_validation_and_reopens_as_written(tmp_path, scene, usd_valid
 
     plain = stage.GetPrimAtPath("/work_cell/plain_pipe")
     world = UsdGeom.Xformable(plain).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
-    np.testing.assert_allclose(np.asarray(world).T, scene.parts[0].transform)
+    np.testing.assert_allclose(np.asarray(world).T, turn @ scene.parts[0].transform, atol=1e-12)
     assert plain.GetAttribute("cadpipe:sides").Get() == 16
     assert plain.GetAttribute("cadpipe:path_length").Get() == pytest.approx(
         scene.parts[0].attributes["path_length"])
     material, _ = UsdShade.MaterialBindingAPI(
-        stage.GetPrimAtPath("/work_cell/plain_pipe/Mesh")).ComputeBoundMaterial()
+        stage.GetPrimAtPath("/work_cell/plain_pipe/plain_pipe")).ComputeBoundMaterial()
     assert _diffuse(material) == pytest.approx(GREEN)
 
 
@@ -143,7 +149,7 @@ def test_usd_union_keeps_part_colours_through_geom_subsets(tmp_path, scene):
     from pxr import Usd, UsdGeom, UsdShade
 
     stage = Usd.Stage.Open(str(export(scene, tmp_path / "cell.usdc")))
-    geom = UsdGeom.Mesh(stage.GetPrimAtPath("/work_cell/union/Mesh"))
+    geom = UsdGeom.Mesh(stage.GetPrimAtPath("/work_cell/union/union"))
     subsets = UsdShade.MaterialBindingAPI(geom.GetPrim()).GetMaterialBindSubsets()
     union = scene.parts[1].mesh
     assert [s.GetPrim().GetName() for s in subsets] == ["red", "blue"]
@@ -248,6 +254,8 @@ def test_mesh_formats_round_trip_through_trimesh(tmp_path, scene, suffix):
     if suffix == "glb":   # glTF is Y-up in metres: the root node converts
         root = gltf_root(scene)
         expected = expected @ root[:3, :3].T
+    if suffix in ("obj", "ply"):   # in metres, as Blender and MeshLab read them
+        expected = expected * scene.scale_to("m")
     assert_same_triangles(loaded.triangles, expected)
     back = cadpipe.Mesh.load(target)
     assert back.is_watertight and back.volume > 0
@@ -274,21 +282,51 @@ def test_3mf_has_units_one_object_per_part_and_colours(tmp_path, scene):
     assert len(loaded.geometry) == 2
 
 
-def test_glb_keeps_a_node_and_a_colour_per_part(tmp_path, scene):
-    target = export(scene, tmp_path / "cell.glb")
-    loaded = trimesh.load(target)
-    nodes = set(loaded.graph.nodes)
-    assert {"work cell", "plain pipe", "union", "union/red", "union/blue"} <= nodes
-    colors = {name: tuple(np.round(np.asarray(g.visual.material.baseColorFactor[:3]) / 255, 2))
-              for name, g in loaded.geometry.items()}
-    assert colors["union/red"] == RED and colors["union/blue"] == BLUE
-    assert colors["plain pipe"] == pytest.approx(GREEN, abs=0.01)
+def glb_json(path):
+    """The JSON chunk of a .glb, read by the container layout of the glTF 2.0 spec."""
+    import json
+    import struct
+
+    data = path.read_bytes()
+    length, kind = struct.unpack_from("<I4s", data, 12)
+    assert data[:4] == b"glTF" and kind == b"JSON"
+    return json.loads(data[20:20 + length])
 
 
-def test_ply_carries_face_colours(tmp_path, scene):
-    loaded = trimesh.load(export(scene, tmp_path / "cell.ply"), process=False)
-    colors = {tuple(c) for c in loaded.visual.face_colors[:, :3].tolist()}
+def test_glb_keeps_a_node_and_a_mesh_per_part_with_a_primitive_per_colour(tmp_path, scene):
+    doc = glb_json(export(scene, tmp_path / "cell.glb"))
+    assert [n["name"] for n in doc["nodes"]] == ["work cell", "plain pipe", "union"]
+    meshes = {m["name"]: m for m in doc["meshes"]}
+    materials = [m["name"] for m in doc["materials"]]
+    assert len(set(materials)) == len(materials)                       # unique names
+
+    def colour(primitive):
+        material = doc["materials"][primitive["material"]]
+        return tuple(material["pbrMetallicRoughness"]["baseColorFactor"][:3])
+
+    assert [colour(p) for p in meshes["union"]["primitives"]] == [RED, BLUE]
+    assert [colour(p) for p in meshes["plain pipe"]["primitives"]] == [GREEN]
+    # the primitives of a part share its vertices: Blender imports one object per part
+    positions = {p["attributes"]["POSITION"] for p in meshes["union"]["primitives"]}
+    assert len(positions) == 1
+    # trimesh (an independent reader) finds the same triangles, coloured the same
+    loaded = trimesh.load(tmp_path / "cell.glb")
+    assert sum(len(g.faces) for g in loaded.geometry.values()) == \
+        sum(len(p.mesh.faces) for p in scene.parts)
+
+
+def test_ply_carries_vertex_and_face_colours(tmp_path, scene):
+    target = export(scene, tmp_path / "cell.ply")
+    loaded = trimesh.load(target, process=False)
+    # vertex colours, which Blender and MeshLab show (trimesh reads them first)
+    assert loaded.visual.kind == "vertex"
+    colors = {tuple(c) for c in loaded.visual.vertex_colors[:, :3].tolist()}
     assert colors == {(0, 204, 51), (255, 0, 0), (0, 0, 255)}
+    corner_colors = loaded.visual.vertex_colors[loaded.faces][:, :, :3]
+    assert (corner_colors == corner_colors[:, :1]).all()        # one colour per face
+    face = loaded.metadata["_ply_raw"]["face"]["data"]
+    face_colors = np.column_stack([face["red"], face["green"], face["blue"]])
+    np.testing.assert_array_equal(face_colors, corner_colors[:, 0])
 
 
 @settings(max_examples=25, deadline=None)
@@ -304,7 +342,7 @@ def test_binary_stl_holds_the_float32_triangles_and_their_normals(tmp_path_facto
     except (cadpipe.GeometryError, InputError):
         assume(False)                                       # folds on itself: not exportable
     target = tmp_path_factory.mktemp("stl") / "pipe.stl"
-    write_stl(mesh, target)
+    write_stl(mesh, target, units="m")
     data = np.fromfile(target, dtype=np.uint8)
     assert len(data) == 84 + 50 * len(mesh.faces)
     loaded = trimesh.load(target, process=False)

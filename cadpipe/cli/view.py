@@ -1,17 +1,16 @@
-"""``cadpipe view``: preview.png and preview.html for a mesh file."""
+"""``cadpipe view``: preview.png and preview.html for a mesh or scene file."""
 
+from dataclasses import replace
 from pathlib import Path as FilePath
 
 from cadpipe.cli import command
-from cadpipe.io.files import ensure_folder
-from cadpipe.geometry.mesh import Mesh
+from cadpipe.io.files import ensure_folder, load_scene
 from cadpipe.io.preview import VIEWS, render_png, write_html
-from cadpipe.io.scene import as_scene
 
 
 def _arguments(parser):
     parser.add_argument("file", metavar="FILE",
-                        help="a mesh file trimesh reads (STL, OBJ, PLY, GLB, 3MF, ...)")
+                        help="a mesh or scene file (STL, OBJ, PLY, GLB, 3MF, USD/USDA/USDC/USDZ)")
     parser.add_argument("-o", "--output", default=".", metavar="DIR",
                         help="folder for preview.png and preview.html (default: here)")
     parser.add_argument("--highlight", action="append", default=[], metavar="PART",
@@ -20,9 +19,9 @@ def _arguments(parser):
                         help="camera direction (default: iso)")
 
 
-@command("view", "Write preview.png and preview.html for a mesh file.", _arguments)
+@command("view", "Write preview.png and preview.html for a mesh or scene file.", _arguments)
 def view(args):
-    scene = as_scene(Mesh.load(args.file), name=FilePath(args.file).name)
+    scene = replace(load_scene(args.file), name=FilePath(args.file).name)
     folder = ensure_folder(args.output)
     for written in (render_png(scene, folder / "preview.png", highlight=args.highlight,
                                view=args.view),

@@ -4,8 +4,9 @@ A weld seam on a workpiece is fitted as a spline; safety pipes of three mouth
 shapes follow it and are spliced through LCM transitions; a hollow, printable
 coolant tee stands beside it; a six-axis arm (``assets/robots/arm6``) is posed
 with its torch at the seam. The cell is checked for collisions (with a separation
-certificate for a pair whose boxes overlap) and written as USD, STL, GLB, a JSON
-report and two previews.
+certificate for a pair whose boxes overlap) and written as USD, GLB, a JSON
+report and two previews; the printable parts as STL (millimetres) and 3MF laid
+out on a build plate.
 """
 
 import json
@@ -37,8 +38,8 @@ ARM_POSE = [0.0, 0.95, 1.25, 0.0, 0.9, 0.0]
 #: the safety pipes' mouths along the seam: sides of each section
 MOUTHS = (6, 8, 12)
 
-FILES = ("scene.usda", "scene.usdz", "parts.stl", "scene.glb", "report.json", "preview.png",
-         "preview.html")
+FILES = ("scene.usda", "scene.usdz", "parts.stl", "parts.3mf", "scene.glb", "report.json",
+         "preview.png", "preview.html")
 
 
 def weld_sections(path, count, gap):
@@ -147,7 +148,9 @@ def run_demo(folder, echo=print):
 
     written = [cell.assembly.export(folder / "scene.usda"),
                cell.assembly.export(folder / "scene.usdz"),
-               cell.printable.export(folder / "parts.stl"),
+               # for printing: each body on the bed (STL in mm), one 3MF object per body
+               cell.printable.export(folder / "parts.stl", layout="print"),
+               cell.printable.export(folder / "parts.3mf", layout="print"),
                cell.assembly.export(folder / "scene.glb")]
     with atomic_path(folder / "report.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=2), encoding="utf-8")
@@ -163,7 +166,8 @@ def run_demo(folder, echo=print):
     echo(f"safety pipe: {'/'.join(map(str, MOUTHS))}-gon mouths spliced through LCM "
          f"transitions, {pipe['triangles']:,} triangles, watertight={pipe['watertight']}, "
          f"torch path inside={pipe['torch_path_inside']}")
-    echo(f"printable parts (parts.stl): {solid['triangles']:,} triangles, "
+    echo(f"printable parts (parts.stl, parts.3mf, laid out for printing): "
+         f"{solid['triangles']:,} triangles, "
          f"watertight={solid['watertight']}, volume {solid['volume_cm3']:.1f} cm^3")
     for a, b, detail in report.collisions:
         echo(f"COLLISION  {a} <-> {b}  (decided by {detail.decided_by})")

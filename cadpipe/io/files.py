@@ -3,13 +3,22 @@
 Exporters are looked up in :data:`cadpipe.io.registry.exporters` (entry-point group
 ``cadpipe.io.files``), so a plugin adds a format the same way cadpipe does.
 Every output is written whole or not at all: into a temporary file beside the
-target, then renamed over it.
+target, then renamed over it. The writer holds a lock on its temporary file,
+so the next write to the same target can tell a temporary file left by a
+killed write (no lock, older than this run) from one being written, and
+removes it.
 """
 
+import fcntl
+import glob
+import inspect
 import os
 import tempfile
+import time
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path as FilePath
+from types import MappingProxyType
 
 import numpy as np
 
@@ -34,17 +43,46 @@ def unique_name(name, taken):
     return candidate
 
 
-def export(obj, path, **options):
+#: values of ``export(..., layout=)``
+LAYOUTS = ("scene", "print")
+
+
+def export(obj, path, *, layout="scene", **options):
     """Write a :class:`~cadpipe.Mesh` (or anything an exporter accepts) to ``path``.
 
-    Returns the path written. Raises :class:`InputError` for an unknown suffix and
-    :class:`ExportError` when the file cannot be written (no partial file remains).
+    Parameters
+    ----------
+    layout : {"scene", "print"}
+        "scene" writes the parts where they are; "print" lays every separate
+        body on a build plate first (:func:`cadpipe.io.scene.laid_out_for_print`:
+        on z = 0, side by side; one 3MF object per body).
+    **options
+        The format's own options (``units``, ``ascii``, ``crease_angle``, ...).
+
+    Returns the path written. Raises :class:`InputError` for an unknown suffix or
+    option and :class:`ExportError` when the file cannot be written (no partial
+    file remains).
     """
+    from cadpipe.io.scene import as_scene, laid_out_for_print
+
     key = suffix_of(path)
     if key not in exporters:
         raise InputError(f"{path}: unknown output format '.{key}'; supported: "
                          f"{', '.join('.' + n for n in exporters.names())}")
-    exporters.get(key)(obj, FilePath(path), **options)
+    if layout not in LAYOUTS:
+        raise InputError(f"expected one of {', '.join(LAYOUTS)}, got {layout!r}",
+                         key="layout")
+    if layout == "print":
+        obj = laid_out_for_print(as_scene(obj))
+    writer = exporters.get(key)
+    known = inspect.signature(writer).parameters
+    if not any(p.kind is p.VAR_KEYWORD for p in known.values()):
+        unknown = sorted(set(options) - set(known))
+        if unknown:
+            usable = [n for n, p in known.items() if p.kind is p.KEYWORD_ONLY]
+            raise InputError(f"'.{key}' files take no option {', '.join(unknown)}; "
+                             f"they take {', '.join(usable) or 'none'}", key=unknown[0])
+    writer(obj, FilePath(path), **options)
     return FilePath(path)
 
 
@@ -84,6 +122,33 @@ def ensure_folder(folder):
     return folder
 
 
+#: when this process started writing: temporary files older than it are from earlier runs
+_RUN_STARTED = time.time()
+
+
+def _temp_pattern(path):
+    """The names :func:`atomic_path` gives its temporary files for ``path``: a glob."""
+    return str(path.parent / f".{glob.escape(path.name)}.*.tmp{glob.escape(path.suffix)}")
+
+
+def _remove_stale(path):
+    """Remove temporary files of earlier, killed writes to ``path`` (none is locked)."""
+    for stale in glob.glob(_temp_pattern(path)):
+        try:
+            if os.stat(stale).st_mtime >= _RUN_STARTED:
+                continue
+            fd = os.open(stale, os.O_RDONLY)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)   # a live writer holds it
+            os.unlink(stale)
+        except OSError:
+            pass
+        finally:
+            os.close(fd)
+
+
 @contextmanager
 def atomic_path(path):
     """Yield a temporary path beside ``path``; rename it over ``path`` only on success."""
@@ -98,8 +163,9 @@ def atomic_path(path):
     except OSError as exc:
         raise ExportError(f"{path}: cannot write there ({exc.strerror}); "
                           "choose a writable folder") from None
-    os.close(fd)
+    fcntl.flock(fd, fcntl.LOCK_EX)            # ours until written: not stale
     try:
+        _remove_stale(path)
         yield FilePath(tmp)
         os.chmod(tmp, 0o666 & ~_umask())      # mkstemp's 0600 is for the temporary only
         os.replace(tmp, path)
@@ -108,37 +174,161 @@ def atomic_path(path):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        os.close(fd)
 
 
-def load_mesh(path):
-    """Read a mesh file through trimesh into a :class:`~cadpipe.Mesh`.
+#: unit a file without one is read in, as the programs that use it read it
+ASSUMED_UNITS = {"stl": "mm", "obj": "m", "ply": "m", "off": "m"}
 
-    Scenes are flattened into one mesh. Raises :class:`ExportError` for a missing or
-    unreadable file and :class:`MeshError` for one holding no triangles.
+
+def load_scene(path):
+    """Read a mesh or scene file into a :class:`~cadpipe.io.scene.Scene`, Z up.
+
+    GLB (:func:`cadpipe.io.gltf.read_glb`) and USD (``.usda``, ``.usdc``,
+    ``.usdz``, ``.usd``: :func:`cadpipe.io.usd.read_usd`) keep their parts,
+    names, colours and units; OBJ keeps its ``o`` objects and ``g`` groups; other
+    formats go through trimesh, one part per node of a scene (3MF objects).
+    Exact duplicate vertices are welded (:func:`welded`). A file without units is in
+    :data:`ASSUMED_UNITS` (STL millimetres, as slicers read it) and its mesh
+    attributes say ``units_assumed``. Raises :class:`ExportError` for a missing
+    file and :class:`MeshError` for one that holds no triangles.
     """
     from cadpipe import limits
-    from cadpipe._validate import MAX_MAGNITUDE, as_input_file
+    from cadpipe._validate import as_input_file
 
     path = as_input_file(path, "mesh file")     # a FIFO or device is never opened
     limits.check_archive(path)                  # 3MF, USDZ: refuse a zip bomb unopened
     if path.suffix.lower() == ".stl":           # 50 bytes a triangle in binary, more in text
         limits.check("max_triangles", path.stat().st_size / 50, "this STL file", file=path)
-    import trimesh  # after the check: a wrong name is reported at once
+    key = path.suffix.lower().lstrip(".")
+    if key == "glb":
+        from cadpipe.io.gltf import read_glb
 
+        scene = read_glb(path)
+    elif key in ("usd", "usda", "usdc", "usdz"):
+        from cadpipe.io.usd import read_usd
+
+        scene = read_usd(path)
+    elif key == "obj":
+        from cadpipe.io.trimesh_formats import read_obj
+
+        scene = read_obj(path)
+    else:
+        scene = _trimesh_scene(path, key)
+    limits.check("max_triangles", sum(len(p.mesh.faces) for p in scene.parts),
+                 "this mesh file", file=path)
+    return replace(scene, parts=tuple(replace(p, mesh=welded(p.mesh)) for p in scene.parts))
+
+
+def file_mesh(vertices, faces, path, name, **options):
+    """A :class:`~cadpipe.Mesh` of part ``name`` read from ``path``; :class:`MeshError`
+    (naming the file and part) for non-finite coordinates or bad face indices."""
     from cadpipe.geometry.mesh import Mesh
 
+    from cadpipe._validate import MAX_MAGNITUDE
+
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if not (np.abs(vertices) <= MAX_MAGNITUDE).all():
+        raise MeshError(f"part {name!r}: some vertex coordinates are NaN or infinite "
+                        f"(or beyond {MAX_MAGNITUDE:g}); the file is corrupt", file=path,
+                        part=name)
     try:
-        loaded = trimesh.load(path, force="mesh", process=False)
+        return Mesh(vertices, faces, **options)
+    except InputError as exc:
+        raise MeshError(f"part {name!r}: {exc}", file=path, part=name) from None
+
+
+def welded(mesh):
+    """``mesh`` with duplicate vertices (equal to 8 decimals) made one.
+
+    Files store a vertex once per triangle (STL) or once per normal or colour
+    (GLB, PLY); the solid is the same surface with shared corners.
+    """
+    from cadpipe.geometry.mesh import Mesh
+
+    rows = np.ascontiguousarray(mesh.vertices)
+    # keyed to 8 decimals, as trimesh's merge_vertices: text formats round, -0.0 is 0.0
+    rounded = np.ascontiguousarray(np.round(rows, 8) + 0.0)
+    keys = rounded.view(np.dtype((np.void, rounded.itemsize * 3))).ravel()
+    unique, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    if len(unique) == len(rows):
+        return mesh
+    return Mesh.trusted(rows[first], inverse.ravel()[mesh.faces], face_part=mesh.face_part,
+                        part_names=mesh.part_names, attributes=mesh.attributes)
+
+
+def _trimesh_scene(path, key):
+    import trimesh
+
+    from cadpipe.io.scene import UNITS, Scene, ScenePart
+
+    try:
+        loaded = trimesh.load(path, process=False)
     except Exception as exc:  # trimesh raises many types for corrupt input
-        raise MeshError(f"{path}: cannot read it as a mesh ({type(exc).__name__}: {exc})") \
-            from None
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
-        raise MeshError(f"{path}: the file holds no triangles (empty, truncated or not a "
-                        "mesh file)")
-    limits.check("max_triangles", len(loaded.faces), "this mesh file", file=path)
-    if not (np.abs(loaded.vertices) <= MAX_MAGNITUDE).all():
-        raise MeshError(f"{path}: some vertex coordinates are NaN or infinite "
-                        f"(or beyond {MAX_MAGNITUDE:g}); the file is corrupt")
-    # files store each triangle's corners separately (STL): weld exact duplicates
-    loaded.merge_vertices(merge_tex=True, merge_norm=True)
-    return Mesh(loaded.vertices, loaded.faces, attributes={"source": str(path)})
+        raise MeshError(f"cannot read it as a mesh ({type(exc).__name__}: {exc})",
+                        file=path) from None
+    if isinstance(loaded, trimesh.Trimesh):
+        pieces = [(path.stem, loaded)]
+    elif isinstance(loaded, trimesh.Scene):
+        pieces = []
+        for node in loaded.graph.nodes_geometry:
+            matrix, name = loaded.graph[node]
+            geometry = loaded.geometry[name]
+            if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
+                pieces.append((node, geometry.copy().apply_transform(matrix)))
+    else:
+        pieces = []
+    pieces = [(name, tm) for name, tm in pieces if len(tm.faces)]
+    if not pieces:
+        raise MeshError("the file holds no triangles (empty, truncated or not a mesh file)",
+                        file=path)
+    units = getattr(loaded, "units", None)
+    units = {"millimeter": "mm", "meter": "m", "centimeter": "cm", "inch": "in",
+             "foot": "ft", "millimeters": "mm", "meters": "m"}.get(units, units)
+    assumed = units not in UNITS
+    if assumed:
+        units = ASSUMED_UNITS.get(key, "m")
+    parts, taken, colors = [], set(), {}
+    for name, tm in pieces:
+        labels, names, rgb = _face_colour_labels(tm, str(name))
+        colors.update(zip(names, rgb))
+        mesh = file_mesh(tm.vertices, tm.faces, path, name, face_part=labels, part_names=names,
+                         attributes={"source": str(path), "units": units,
+                                     "units_assumed": assumed})
+        parts.append(ScenePart(unique_name(str(name), taken), mesh))
+    return Scene(name=path.stem, parts=tuple(parts), units=units,
+                 colors=MappingProxyType(colors))
+
+
+def _face_colour_labels(tm, name):
+    """Labels of a trimesh's faces by face colour (a PLY's, a 3MF's), names and colours."""
+    raw = tm.metadata.get("_ply_raw", {}).get("face", {}).get("data")
+    if raw is not None and all(c in raw.dtype.names for c in ("red", "green", "blue")):
+        rgb = np.column_stack([raw["red"], raw["green"], raw["blue"]]).astype(np.uint8)
+    elif tm.visual.kind == "face":
+        rgb = np.asarray(tm.visual.face_colors)[:, :3]
+    else:
+        return None, (), ()
+    colours, labels = np.unique(rgb, axis=0, return_inverse=True)
+    names = tuple(f"{name}_{r:02x}{g:02x}{b:02x}" for r, g, b in colours)
+    return labels.ravel(), names, [tuple(v / 255.0 for v in c) for c in colours.tolist()]
+
+
+def load_mesh(path):
+    """Read a mesh file (any format :func:`load_scene` reads) into one
+    :class:`~cadpipe.Mesh` in world coordinates.
+
+    A file of several parts gives a mesh whose faces are labelled with their
+    part's name (``face_part``); a single part keeps its own labels (a GLB's
+    materials, a USD mesh's subsets). ``attributes`` hold ``source`` and
+    ``units``.
+    """
+    from cadpipe.geometry.mesh import Mesh
+
+    scene = load_scene(path)
+    if len(scene.parts) == 1:
+        return scene.parts[0].world_mesh()
+    meshes = [part.world_mesh().with_parts((part.name,)) for part in scene.parts]
+    joined = Mesh.concatenate(meshes)
+    return Mesh(joined.vertices, joined.faces, face_part=joined.face_part,
+                part_names=joined.part_names, attributes=scene.parts[0].mesh.attributes)

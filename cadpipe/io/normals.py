@@ -136,9 +136,22 @@ def split_for_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
     normals : (V', 3) float array
     """
     shading = shading_normals(mesh, crease_angle)
+    n_vertices = len(mesh.vertices)
     if shading.per_vertex:
         return mesh.vertices, mesh.faces, shading.normals
-    key = mesh.faces.ravel() * len(shading.normals) + shading.corner_index
+    # only corners with an extra (crease) normal need a new vertex: one per distinct
+    # (vertex, normal) pair among them; every other corner keeps its vertex
+    corners = mesh.faces.ravel()
+    extra = np.flatnonzero(shading.corner_index >= n_vertices)
+    key = corners[extra] * len(shading.normals) + shading.corner_index[extra]
     unique, inverse = np.unique(key, return_inverse=True)
     vertex, normal = np.divmod(unique, len(shading.normals))
-    return mesh.vertices[vertex], inverse.reshape(-1, 3), shading.normals[normal]
+    faces = corners.copy()
+    faces[extra] = n_vertices + inverse.ravel()
+    # drop the vertices whose every corner moved to a copy (a mask and a cumsum: no sort)
+    used = np.zeros(n_vertices + len(unique), bool)
+    used[faces] = True
+    renumber = np.cumsum(used) - 1
+    vertices = np.concatenate([mesh.vertices, mesh.vertices[vertex]])[used]
+    normals = np.concatenate([shading.normals[:n_vertices], shading.normals[normal]])[used]
+    return vertices, renumber[faces].reshape(-1, 3), normals

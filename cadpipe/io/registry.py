@@ -89,5 +89,5 @@ part_kinds = Registry("cadpipe.parts", "part kind", {
 exporters = Registry("cadpipe.exporters", "output format", {
     "stl": "cadpipe.io.stl:write_stl", "usda": "cadpipe.io.usd:write_usd",
     "usdc": "cadpipe.io.usd:write_usd", "usdz": "cadpipe.io.usd:write_usd",
-    "3mf": "cadpipe.io.threemf:write_3mf", "glb": "cadpipe.io.trimesh_formats:write_glb",
+    "3mf": "cadpipe.io.threemf:write_3mf", "glb": "cadpipe.io.gltf:write_glb",
     "obj": "cadpipe.io.trimesh_formats:write_obj", "ply": "cadpipe.io.trimesh_formats:write_ply"})

@@ -1,7 +1,10 @@
-"""STL for 3D printing: binary by default, ASCII on request, written from numpy in one go.
+"""STL for 3D printing: binary by default, ASCII on request, written from numpy.
 
 STL has no units, names or colours: every part of the scene goes into one
-triangle soup in world coordinates. Corners are cast to float32 first and the
+triangle soup in world coordinates. Slicers (PrusaSlicer, Cura, ...) read STL
+as millimetres, so it is written in millimetres unless ``units`` says
+otherwise. Records are built and written a block at a time: the file costs
+no memory beyond one block. Corners are cast to float32 first and the
 facet normals are computed from those float32 corners, so each record's normal
 matches the triangle the file actually holds.
 """
@@ -13,44 +16,51 @@ from cadpipe.io.files import atomic_path
 from cadpipe.io.flatten import flatten
 
 _RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
-#: faces per block of :func:`stl_records` (its temporaries fit in L2 cache)
+#: faces per block of :func:`_blocks` (its temporaries fit in L2 cache)
 _BLOCK = 1 << 16
 
 
-def write_stl(obj, path, *, ascii=False):
+def write_stl(obj, path, *, ascii=False, units="mm"):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as STL, atomically.
 
     Parameters
     ----------
     ascii : bool
         Write the text form (about 5x larger and slower to read) instead of binary.
+    units : str
+        Length unit of the file's coordinates (a key of ``cadpipe.io.scene.UNITS``);
+        millimetres, as slicers read STL.
     """
     scene = as_scene(obj)
-    mesh = flatten(scene).mesh
-    records = stl_records(mesh.vertices, mesh.faces)
-    with atomic_path(path) as tmp:
+    mesh = flatten(scene, scene.scale_to(units)).mesh
+    with atomic_path(path) as tmp, open(tmp, "w" if ascii else "wb") as fh:
         if ascii:
-            _write_ascii(records, tmp, scene.name)
+            solid = "".join(c if c.isalnum() or c in "-_." else "_" for c in scene.name)
+            fh.write(f"solid {solid or 'cadpipe'}\n")
         else:
-            header = f"binary STL from cadpipe: {scene.name}".encode("ascii", "replace")[:80]
-            with open(tmp, "wb") as fh:
-                fh.write(header.ljust(80, b" "))
-                fh.write(np.uint32(len(records)).tobytes())
-                fh.write(records.data)
+            header = f"binary STL from cadpipe ({units}): {scene.name}"
+            fh.write(header.encode("ascii", "replace")[:80].ljust(80, b" "))
+            fh.write(np.uint32(len(mesh.faces)).tobytes())
+        for records in _blocks(mesh.vertices, mesh.faces):
+            fh.write(_ascii(records) if ascii else records.data)
+        if ascii:
+            fh.write(f"endsolid {solid or 'cadpipe'}\n")
 
 
-def stl_records(vertices, faces):
-    """(F,) binary STL records: float32 unit normal, three float32 corners, zero attribute.
+def _blocks(vertices, faces):
+    """Binary STL records (float32 unit normal, three float32 corners, zero attribute),
+    a block of faces at a time.
 
     The corners are gathered straight into the records and the normals computed
-    from them there, a block of faces at a time so the temporaries stay in the
-    CPU cache: a million triangles take a few tens of milliseconds.
+    from them there, so the temporaries stay in the CPU cache: a million
+    triangles take a few tens of milliseconds.
     """
     v32 = np.asarray(vertices, dtype=np.float32)
-    records = np.empty(len(faces), dtype=_RECORD)
+    records = np.empty(min(len(faces), _BLOCK), dtype=_RECORD)
     for start in range(0, len(faces), _BLOCK):
-        _fill(v32, faces[start:start + _BLOCK], records[start:start + _BLOCK])
-    return records
+        block = faces[start:start + _BLOCK]
+        _fill(v32, block, records[:len(block)])
+        yield records[:len(block)]
 
 
 def _fill(v32, faces, records):
@@ -67,12 +77,9 @@ def _fill(v32, faces, records):
     records["attr"] = 0
 
 
-def _write_ascii(records, tmp, name):
+def _ascii(records):
     rows = np.concatenate([records["normal"][:, None, :], records["corners"]], axis=1)
     facet = ("facet normal {:.9g} {:.9g} {:.9g}\n outer loop\n"
              "  vertex {:.9g} {:.9g} {:.9g}\n  vertex {:.9g} {:.9g} {:.9g}\n"
              "  vertex {:.9g} {:.9g} {:.9g}\n endloop\nendfacet\n")
-    body = (facet * len(rows)).format(*rows.ravel().tolist())
-    solid = "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "cadpipe"
-    with open(tmp, "w", encoding="ascii") as fh:
-        fh.write(f"solid {solid}\n{body}endsolid {solid}\n")
+    return (facet * len(rows)).format(*rows.ravel().tolist())

@@ -11,8 +11,10 @@ Package layout (3MF core specification 1.3)::
     [Content_Types].xml
     _rels/.rels                  -> /3D/3dmodel.model
     3D/3dmodel.model             <model unit=...>: <basematerials> with one colour per
-                                 part name, one <object> per scene part (world
-                                 coordinates), one build <item> per object
+                                 part name (names unique), one <object> per scene
+                                 part (world coordinates) whose pid/pindex is its own
+                                 colour, one build <item> per object; triangles of a
+                                 part with several colours carry pid and p1
 
 Coordinates are written as float32 values with 9 significant digits, as an
 integer mantissa and exponent (``x="123456789e-9"``, a valid 3MF number): the
@@ -29,7 +31,7 @@ import numpy as np
 from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import merge_tables
 from cadpipe.io.scene import as_scene
-from cadpipe.io.files import atomic_path
+from cadpipe.io.files import atomic_path, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.text import ascii_rows, float32_decimal
 
@@ -52,27 +54,31 @@ _RELS = (
     'Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>\n')
 _VERTEX = (b'<vertex x="', 0, b"e", 1, b'" y="', 2, b"e", 3, b'" z="', 4, b"e", 5, b'"/>\n')
 _TRIANGLE = (b'<triangle v1="', 0, b'" v2="', 1, b'" v3="', 2, b'"/>\n')
-_TRIANGLE_COLORED = _TRIANGLE[:-1] + (b'" p1="', 3, b'"/>\n')
+_TRIANGLE_COLORED = _TRIANGLE[:-1] + (b'" pid="1" p1="', 3, b'"/>\n')
 #: longest possible vertex or triangle row, in bytes (with 32-bit indices)
 _MAX_ROW_BYTES = 96
 #: rows formatted per chunk: bounds memory and lets compression overlap formatting
 _CHUNK = 1 << 16
 
 
-def write_3mf(obj, path, *, compresslevel=1):
+def write_3mf(obj, path, *, compresslevel=1, units=None):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as a 3MF package, atomically.
 
     Parameters
     ----------
     compresslevel : int
         Deflate level 1-9 of the model part (1: fastest; 9 saves about 15 %).
+    units : str, optional
+        Length unit of the file (the model's ``unit``); default: the scene's own.
     """
     scene = as_scene(obj)
-    if scene.units not in UNIT_NAMES:
-        raise InputError(f"units: 3MF knows {', '.join(UNIT_NAMES)}, got {scene.units!r}; "
+    units = units or scene.units
+    if units not in UNIT_NAMES:
+        raise InputError(f"units: 3MF knows {', '.join(UNIT_NAMES)}, got {units!r}; "
                          "convert the scene to one of them")
-    unit = UNIT_NAMES[scene.units]
-    parts = [(part.name, labelled(scene, part, world=True)) for part in scene.parts]
+    unit, scale = UNIT_NAMES[units], scene.scale_to(units)
+    parts = [(part.name, labelled(scene, part, world=True, scale=scale))
+             for part in scene.parts]
     with atomic_path(path) as tmp, \
             zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED, compresslevel=compresslevel) as zf:
         zf.writestr("[Content_Types].xml", _CONTENT_TYPES)
@@ -100,13 +106,20 @@ def _model_xml(scene, unit, parts):
     materials, indices = merge_tables([[(name, _hex(rgb)) for name, rgb in
                                          zip(painted.names, painted.colors)]
                                         for _, painted in parts])   # (name, colour) -> base
+    taken = set()
+    unique = [unique_name(label, taken) for label, _ in materials]  # names repeat by colour
+    # each object's own colour: its own label's, else the one most of its faces have
+    own = [base[painted.names.index(name)] if name in painted.names else
+           base[int(np.bincount(painted.labels, minlength=len(base)).argmax())]
+           for (name, painted), base in zip(parts, indices)]
     yield b'<basematerials id="1">\n' + "".join(
-        f'<base name={quoteattr(name)} displaycolor="{color}"/>\n'
-        for name, color in materials).encode() + b"</basematerials>\n"
-    for object_id, ((name, painted), base) in enumerate(zip(parts, indices), start=2):
+        f'<base name={quoteattr(label)} displaycolor="{color}"/>\n'
+        for label, (_, color) in zip(unique, materials)).encode() + b"</basematerials>\n"
+    for object_id, ((name, painted), base, pindex) in enumerate(zip(parts, indices, own),
+                                                                start=2):
         mesh = painted.mesh
         yield (f'<object id="{object_id}" type="model" name={quoteattr(name)} pid="1" '
-               f'pindex="{base[0]}">\n<mesh>\n<vertices>\n').encode()
+               f'pindex="{pindex}">\n<mesh>\n<vertices>\n').encode()
         mantissa, exponent = float32_decimal(mesh.vertices)
         yield from _rows(_VERTEX, np.stack([mantissa, exponent], axis=2).reshape(-1, 6))
         yield b"</vertices>\n<triangles>\n"

@@ -2,17 +2,21 @@
 
 Layout of the stage (``defaultPrim`` is the root, so the file can be referenced)::
 
-    /<scene>                     Xform, kind=assembly
+    /<scene>                     Xform, kind=assembly (for a Y-up stage of a Z-up
+                                 scene: xformOp:transform turning it upright)
         /Materials               Scope
             /<name>              Material -> PreviewSurface (UsdPreviewSurface shader)
         /<part>                  Xform, kind=component, xformOp:transform,
                                  custom attributes cadpipe:<parameter>
-            /Mesh                Mesh (triangles, no subdivision, normals, displayColor),
-                                 material bound through MaterialBindingAPI
+            /<part>              Mesh (triangles, no subdivision, normals, displayColor),
+                                 material bound through MaterialBindingAPI; named
+                                 after its part, as DCC tools name objects by it
                 /<label>         GeomSubset per source part of a unioned mesh
                                  (familyName materialBind), bound to that part's material
 
-Stage metadata: ``upAxis`` and ``metersPerUnit`` from the scene. Points, normals
+Stage metadata: ``metersPerUnit`` from the scene (or ``units``), ``upAxis``
+the scene's, except a ``.usdz``, which is Y-up (AR Quick Look shows Z-up files
+lying on their side). Points, normals
 and colours are float32 (USD's ``point3f``); arrays go in through
 ``Vt.*.FromNumpy``, never as Python lists. Normals follow a crease angle
 (:mod:`cadpipe.io.normals`): smooth round tubes, hard caps and edges. A
@@ -24,18 +28,20 @@ per crease group instead of one per face corner.
 import numbers
 import tempfile
 from pathlib import Path as FilePath
+from types import MappingProxyType
 
 import numpy as np
 
 from cadpipe._validate import as_choice
 from cadpipe.errors import ExportError, MeshError
-from cadpipe.io.scene import as_scene
-from cadpipe.io.files import atomic_path, suffix_of, unique_name
+from cadpipe.io.scene import TO_Y_UP, as_scene, printable
+from cadpipe.io.files import atomic_path, file_mesh, suffix_of, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import DEFAULT_CREASE_ANGLE, shading_normals
 
 
-def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE):
+def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_axis=None,
+              normals=True):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as .usda, .usdc or .usdz, atomically.
 
     Parameters
@@ -43,8 +49,18 @@ def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE):
     crease_angle : float
         Degrees: faces meeting at a sharper angle shade with a hard edge
         (0 faceted, 180 smooth).
+    units : str, optional
+        Length unit of the stage (``metersPerUnit``); default: the scene's own.
+    up_axis : {"Y", "Z"}, optional
+        The stage's up axis; default "Y" for .usdz (AR), else the scene's.
+    normals : bool
+        Write shading normals; without them a renderer shades the (unsubdivided)
+        mesh by its faces.
     """
-    save_stage(build_stage(as_scene(obj), crease_angle=crease_angle), path)
+    scene = as_scene(obj).in_units(units)
+    up = up_axis or ("Y" if suffix_of(path) == "usdz" else scene.up_axis)
+    save_stage(build_stage(scene, crease_angle=crease_angle, up_axis=up, normals=normals),
+               path)
 
 
 def save_stage(stage, path):
@@ -66,11 +82,17 @@ def save_stage(stage, path):
                 raise ExportError(f"{path}: usd-core could not package the .usdz")
 
 
-def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE):
-    """An in-memory :class:`pxr.Usd.Stage` holding ``scene`` (see the module docstring)."""
+def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE, up_axis=None, normals=True):
+    """An in-memory :class:`pxr.Usd.Stage` holding ``scene`` (see the module docstring).
+
+    ``up_axis`` ("Y" or "Z", default the scene's) is the stage's; a Z-up scene on
+    a Y-up stage is turned upright by its root prim's transform. ``normals=False``
+    leaves shading normals out.
+    """
     from pxr import Kind, Usd, UsdGeom
 
-    up = as_choice(str(scene.up_axis).upper(), "up_axis", ("Y", "Z"))
+    own = as_choice(str(scene.up_axis).upper(), "up_axis", ("Y", "Z"))
+    up = as_choice(str(up_axis or own).upper(), "up_axis", ("Y", "Z"))
     stage = Usd.Stage.CreateInMemory()
     stage.GetRootLayer().documentation = "written by cadpipe"
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if up == "Z" else UsdGeom.Tokens.y)
@@ -78,20 +100,25 @@ def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE):
     root = UsdGeom.Xform.Define(stage, "/" + _valid_name(scene.name, set()))
     Usd.ModelAPI(root).SetKind(Kind.Tokens.assembly)
     stage.SetDefaultPrim(root.GetPrim())
+    if up != own:
+        turn = np.eye(4)
+        turn[:3, :3] = TO_Y_UP[own] if up == "Y" else TO_Y_UP["Z"].T
+        root.AddTransformOp().Set(_matrix(turn))
 
     children = set()
     scope = UsdGeom.Scope.Define(stage, root.GetPath().AppendChild(_valid_name("Materials",
                                                                               children)))
     materials = _Materials(stage, scope.GetPath())
     for part in scene.parts:
-        xform = UsdGeom.Xform.Define(stage, root.GetPath().AppendChild(_valid_name(part.name,
-                                                                                  children)))
+        prim_name = _valid_name(part.name, children)
+        xform = UsdGeom.Xform.Define(stage, root.GetPath().AppendChild(prim_name))
         Usd.ModelAPI(xform).SetKind(Kind.Tokens.component)
         if part.transform is not None:
             xform.AddTransformOp().Set(_matrix(part.transform))
         _set_custom_attributes(xform.GetPrim(), part.attributes)
         painted = labelled(scene, part)
-        geom = _define_mesh(stage, xform.GetPath().AppendChild("Mesh"), painted, crease_angle)
+        geom = _define_mesh(stage, xform.GetPath().AppendChild(prim_name), painted,
+                            crease_angle if normals else None)
         _bind_materials(geom, painted, materials)
     return stage
 
@@ -128,15 +155,14 @@ def _define_mesh(stage, prim_path, painted, crease_angle):
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
-    shading = shading_normals(mesh, crease_angle)
-    normals = Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32))
-    if shading.per_vertex:
-        geom.CreateNormalsAttr(normals)
+    shading = None if crease_angle is None else shading_normals(mesh, crease_angle)
+    if shading is not None and shading.per_vertex:
+        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
         geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
-    else:   # creases: an indexed primvar (one normal per vertex plus a few, not per corner)
+    elif shading is not None:   # creases: indexed (a normal per vertex plus a few per crease)
         primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
             "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
-        primvar.Set(normals)
+        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
         primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32)))
     if len(colors) == 1:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
@@ -210,13 +236,114 @@ def _set_custom_attributes(prim, attributes):
         elif isinstance(value, numbers.Real):
             kind, value = Sdf.ValueTypeNames.Double, float(value)
         elif isinstance(value, str):
-            kind = Sdf.ValueTypeNames.String
+            kind, value = Sdf.ValueTypeNames.String, printable(value)
         else:
             array = np.asarray(value)
             if array.ndim == 1 and np.issubdtype(array.dtype, np.number):
                 kind = Sdf.ValueTypeNames.DoubleArray
                 value = Vt.DoubleArray.FromNumpy(array.astype(np.float64))
             else:
-                kind, value = Sdf.ValueTypeNames.String, str(value)
+                kind, value = Sdf.ValueTypeNames.String, printable(value)
         name = "cadpipe:" + Tf.MakeValidIdentifier(str(key))
         prim.CreateAttribute(name, kind, custom=True).Set(value)
+
+
+# -- reading ---------------------------------------------------------------------
+def read_usd(path):
+    """The meshes of a .usda/.usdc/.usdz file as a Z-up :class:`~cadpipe.io.scene.Scene`.
+
+    Each Mesh prim is a part named after the prim, in world coordinates
+    (polygons fanned into triangles), in the stage's units (``metersPerUnit``;
+    metres if it is none of cadpipe's units). Faces are labelled by their
+    ``materialBind`` GeomSubsets and coloured by ``displayColor``. A Y-up stage
+    is turned back to Z up. Raises :class:`MeshError` for an unreadable file
+    or one without triangles.
+    """
+    from pxr import Tf, Usd, UsdGeom
+
+    from cadpipe.io.scene import UNITS, Scene, ScenePart
+
+    try:
+        stage = Usd.Stage.Open(str(path))
+    except Tf.ErrorException as exc:
+        raise MeshError(f"usd-core cannot open it ({str(exc).strip().splitlines()[-1]})",
+                        file=path) from None
+    if stage is None:
+        raise MeshError("usd-core cannot open it", file=path)
+    mpu = UsdGeom.GetStageMetersPerUnit(stage)
+    units = next((k for k, v in UNITS.items() if np.isclose(v, mpu)), None)
+    scale = 1.0 if units else mpu
+    turn = TO_Y_UP["Z"].T if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y else np.eye(3)
+    parts, colors, taken = [], {}, set()
+    for prim in stage.Traverse():
+        if not prim.IsA(UsdGeom.Mesh):
+            continue
+        geom = UsdGeom.Mesh(prim)
+        points = np.asarray(geom.GetPointsAttr().Get() or [], dtype=np.float64).reshape(-1, 3)
+        counts = np.asarray(geom.GetFaceVertexCountsAttr().Get() or [], dtype=np.int64)
+        indices = np.asarray(geom.GetFaceVertexIndicesAttr().Get() or [], dtype=np.int64)
+        if len(counts) == 0 or counts.sum() != len(indices) or (counts < 3).any():
+            continue
+        faces, polygon = _fan(counts, indices)
+        world = np.array(geom.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
+        vertices = (points @ world[:3, :3].T + world[:3, 3]) @ (turn * scale).T
+        if np.linalg.det(world[:3, :3]) < 0:
+            faces = faces[:, ::-1]
+        if geom.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded:
+            faces = faces[:, ::-1]
+        name = unique_name(prim.GetName(), taken)
+        labels, names = _subset_labels(geom, len(counts), name)
+        face_colors = _display_colors(geom, len(counts))
+        for label, label_name in enumerate(names):
+            if face_colors is not None and (labels == label).any():
+                colors.setdefault(label_name, tuple(map(float, face_colors[labels == label][0])))
+        mesh = file_mesh(vertices, faces, path, name, face_part=labels[polygon],
+                         part_names=names, attributes={"source": str(path),
+                                                       "units": units or "m"})
+        parts.append(ScenePart(name, mesh))
+    if not parts:
+        raise MeshError("the file holds no triangle meshes", file=path)
+    return Scene(name=FilePath(path).stem, parts=tuple(parts), units=units or "m",
+                 colors=MappingProxyType(colors))
+
+
+def _fan(counts, indices):
+    """Polygons as fans of triangles: (T, 3) corner indices and the polygon of each."""
+    polygon = np.repeat(np.arange(len(counts)), counts - 2)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])[polygon]
+    k = np.arange(len(polygon)) - np.repeat(np.cumsum(counts - 2) - (counts - 2), counts - 2)
+    corners = np.stack([first, first + k + 1, first + k + 2], axis=1)
+    return indices[corners], polygon
+
+
+def _subset_labels(geom, n_faces, name):
+    """(F,) label of each polygon from ``materialBind`` GeomSubsets, and the label names."""
+    from pxr import UsdGeom, UsdShade
+
+    subsets = UsdShade.MaterialBindingAPI(geom.GetPrim()).GetMaterialBindSubsets()
+    labels = np.zeros(n_faces, np.int32)
+    names = [name]
+    for subset in subsets:
+        if subset.GetElementTypeAttr().Get() != UsdGeom.Tokens.face:
+            continue
+        faces = np.asarray(subset.GetIndicesAttr().Get() or [], dtype=np.int64)
+        faces = faces[(faces >= 0) & (faces < n_faces)]
+        names.append(subset.GetPrim().GetName())
+        labels[faces] = len(names) - 1
+    if len(names) > 1 and not (labels == 0).any():
+        return labels - 1, tuple(names[1:])       # subsets cover every face
+    return labels, tuple(names)
+
+
+def _display_colors(geom, n_faces):
+    """(F, 3) displayColor per polygon, or None when the mesh has none per face or constant."""
+    primvar = geom.GetDisplayColorPrimvar()
+    if not primvar or not primvar.HasValue():
+        return None
+    values = np.asarray(primvar.ComputeFlattened() or [], dtype=np.float64).reshape(-1, 3)
+    interpolation = primvar.GetInterpolation()
+    if len(values) == 1 or interpolation == "constant":
+        return np.repeat(values[:1], n_faces, axis=0) if len(values) else None
+    if interpolation == "uniform" and len(values) == n_faces:
+        return values
+    return None

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike
 
 from cadpipe import limits
 from cadpipe._validate import as_choice
-from cadpipe.solids.booleans import as_solid, combine, is_void, reserve_ids, snap
+from cadpipe.solids.booleans import as_solid, combine, float32_step, is_void, reserve_ids, snap
 from cadpipe.errors import CadpipeError, GeometryError, InputError
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.io.scene import Scene, ScenePart, meters_per_unit, parse_color
@@ -233,6 +233,9 @@ class Assembly:
                                  "combining it")
             self._prepare(progress)
             solid = combine(*self._operands)
+            # edges shorter than float32 can tell apart would weld into non-manifold
+            # ones in every file written: collapse them (vertices move less than that)
+            solid = solid.simplify(float32_step(solid.bounding_box()))
             if is_void(solid, self._operands[0]):
                 raise GeometryError(f"assembly {self.name!r}: nothing is left after the "
                                     "subtractions and intersections")

@@ -184,3 +184,11 @@ def carve(bodies, bores=(), name="solid", **mesh_options):
     if is_void(solid, adds):
         raise GeometryError("nothing is left after cutting the bores", part=name)
     return Mesh.from_manifold(solid, **mesh_options)
+
+
+def float32_step(bounds):
+    """A few float32 steps at the largest coordinate of ``bounds`` (min and max corner,
+    six numbers in any nesting): below it, files of float32 coordinates (STL, 3MF, GLB,
+    USD) cannot tell two points apart."""
+    largest = float(np.abs(np.asarray(bounds, dtype=np.float64)).max(initial=0.0))
+    return 4 * float(np.finfo(np.float32).eps) * largest

@@ -9,12 +9,14 @@ level by level, one numpy operation per level for all pairs at once.
 minute for a million triangles; this takes seconds.)
 
 Narrow phase: two triangles that share no vertex intersect when an edge of
-one passes through the interior of the other. Touching (within a tolerance of
-1e-9 of the mesh size) does not count, and neither do neighbouring faces that
+one passes through the interior of the other. Touching (within
+:func:`touching_tolerance`) does not count, and neither do neighbouring faces that
 share a vertex or coplanar overlaps (those show up as non-manifold edges).
 """
 
 import numpy as np
+
+from cadpipe.solids.booleans import float32_step
 
 #: triangles per leaf of the hierarchy
 LEAF = 4
@@ -28,7 +30,7 @@ def self_intersections(mesh):
     if len(faces) < 2:
         return np.empty((0, 2), np.int64)
     tri = mesh.triangles
-    tol = 1e-9 * float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
+    tol = touching_tolerance(mesh)
     found = []
     for pairs in box_pairs(tri.min(axis=1), tri.max(axis=1)):
         shared = (faces[pairs[:, 0]][:, :, None] == faces[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
@@ -46,6 +48,18 @@ def self_intersections(mesh):
     found = np.concatenate(found) if found else np.empty((0, 2), np.int64)
     found = np.sort(found, axis=1)
     return found[np.lexsort((found[:, 1], found[:, 0]))]
+
+
+def touching_tolerance(mesh):
+    """Distance below which faces touch rather than cross: 1e-9 of the mesh's size, or,
+    for coordinates that are all float32 values (read from STL, 3MF, GLB, USD), a
+    few float32 steps at the mesh's largest coordinate, so rounding to float32 does not
+    turn touching faces into crossing ones."""
+    vertices = mesh.vertices
+    tol = 1e-9 * float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
+    if len(vertices) and np.array_equal(vertices.astype(np.float32), vertices):
+        tol = max(tol, 2 * float32_step(mesh.bounds))
+    return tol
 
 
 def _straddles(d, tol):

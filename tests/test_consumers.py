@@ -1,0 +1,280 @@
+"""The files cadpipe writes open in the programs people use them with.
+
+PrusaSlicer slices the STL and 3MF (layers, no "empty" or "not manifold"
+warning), lib3mf (the 3MF Consortium's reader) reads the 3MF with a colour per
+part and no warnings, the Khronos glTF validator finds no errors in the GLB,
+and the USDZ follows AR Quick Look's rules. All of it on the demo's files and
+on each example spec's. The programs are installed by ``make consumers``.
+"""
+
+import json
+import subprocess
+from pathlib import Path as FilePath
+
+import numpy as np
+import pytest
+
+import cadpipe
+from cadpipe.cli import main
+from cadpipe.cli.welding_cell import run_demo
+from cadpipe.io.files import export, load_scene
+from cadpipe.io.flatten import labelled
+from cadpipe.io.scene import Scene, ScenePart, as_scene
+
+ROOT = FilePath(__file__).resolve().parent.parent
+EXAMPLES = sorted(p for p in (ROOT / "assets" / "examples").iterdir()
+                  if p.suffix in (".toml", ".json"))
+VALIDATOR = ROOT / ".tools" / "node_modules" / "gltf-validator"
+#: a bed big enough for the demo's half-metre parts (the slicer's default is 200 mm), and a
+#: coarse print (1 mm nozzle, 0.7 mm layers, one perimeter, no infill) that slices fast
+SLICER = ["--bed-shape", "0x0,2000x0,2000x2000,0x2000", "--max-print-height", "1000",
+          "--nozzle-diameter", "1", "--layer-height", "0.7", "--first-layer-height", "0.7",
+          "--fill-density", "0", "--perimeters", "1", "--skirts", "0",
+          "--top-solid-layers", "0", "--bottom-solid-layers", "1"]
+FORMATS = ("stl", "3mf", "glb", "usdz")
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("demo")
+    run_demo(folder, echo=lambda *_: None)
+    return folder
+
+
+#: examples the slicer refuses for a reason outside the writers: the round-capped open
+#: mouths of hollow parts end in a knife edge (the envelope engineer's fix, issue 16)
+KNIFE_EDGE = pytest.mark.xfail(strict=True, reason="open mouth ends in a knife edge: "
+                                                   "no extrusions in the first layer")
+
+
+@pytest.fixture(scope="module", params=[p.name for p in EXAMPLES])
+def example(request, tmp_path_factory):
+    """An example spec built into every consumer format (printing ones laid out)."""
+    folder = tmp_path_factory.mktemp(FilePath(request.param).stem)
+    spec = ROOT / "assets" / "examples" / request.param
+    stem = spec.stem
+    for suffix in FORMATS:
+        layout = ["--layout", "print"] if suffix in ("stl", "3mf") else []
+        assert main(["build", str(spec), "-q", "-o", str(folder / f"{stem}.{suffix}"),
+                     *layout]) == 0
+    return folder, stem
+
+
+# -- PrusaSlicer -------------------------------------------------------------------
+def slice_file(path, tmp_path):
+    out = tmp_path / (path.stem + ".gcode")
+    run = subprocess.run(["prusa-slicer", "--export-gcode", str(path), *SLICER, "-o", str(out)],
+                         capture_output=True, text=True, timeout=300)
+    log = (run.stdout + run.stderr).replace(str(out), "OUT").replace(str(path), "IN").lower()
+    assert run.returncode == 0 and out.is_file(), log[-2000:]
+    for warning in ("empty", "manifold", "repaired", "no extrusions", "error"):
+        assert warning not in log, log[-2000:]
+    return out.read_text().count(";LAYER_CHANGE")
+
+
+@pytest.mark.parametrize("name", ["parts.stl", "parts.3mf"])
+def test_prusaslicer_slices_the_demo_parts(demo, tmp_path, name):
+    layers = slice_file(demo / name, tmp_path)
+    # the tallest part stands about 0.23 m on the bed: some 330 layers of 0.7 mm
+    assert 250 < layers < 450
+
+
+def test_prusaslicer_slices_each_example(example, tmp_path, request):
+    folder, stem = example
+    if stem == "y_junction":
+        request.applymarker(KNIFE_EDGE)
+    # the STL: the 3MF writer's output is sliced on the demo, and read by lib3mf here too
+    assert slice_file(folder / f"{stem}.stl", tmp_path) > 0
+
+
+def test_demo_parts_stand_on_the_bed_in_millimetres(demo):
+    mesh = cadpipe.Mesh.load(demo / "parts.stl")
+    low, high = mesh.bounds
+    assert low[2] == pytest.approx(0.0, abs=1e-6)
+    assert 100 < (high - low).max() < 2000          # hundreds of mm, not a fraction of one
+
+
+# -- lib3mf --------------------------------------------------------------------------
+def lib3mf_colours(path):
+    """{object name: {(r, g, b) of its triangles}} and the reader's warning count."""
+    import lib3mf
+
+    wrapper = lib3mf.get_wrapper()
+    model = wrapper.CreateModel()
+    reader = model.QueryReader("3mf")
+    reader.SetStrictModeActive(True)
+    reader.ReadFromFile(str(path))
+    colours = {}
+    objects = model.GetMeshObjects()
+    while objects.MoveNext():
+        mesh = objects.GetCurrentMeshObject()
+        found = set()
+        for prop in mesh.GetAllTriangleProperties():
+            group = model.GetBaseMaterialGroupByID(prop.ResourceID)
+            rgb = group.GetDisplayColor(prop.PropertyIDs[0])
+            found.add((rgb.Red, rgb.Green, rgb.Blue))
+        colours[mesh.GetName()] = found
+    return colours, reader.GetWarningCount()
+
+
+def test_lib3mf_reads_the_demo_parts_with_their_colours(demo):
+    colours, warnings = lib3mf_colours(demo / "parts.3mf")
+    assert warnings == 0
+    assert colours == {"safety_pipe": {(0x3B, 0x82, 0xF6)}, "coolant_tee": {(0xF5, 0x9E, 0x0B)}}
+
+
+def test_lib3mf_reads_each_example_with_a_colour_per_part(example):
+    folder, stem = example
+    colours, warnings = lib3mf_colours(folder / f"{stem}.3mf")
+    assert warnings == 0 and colours
+    assert len(set(colours)) == len(colours)
+    assert all(found for found in colours.values())      # every triangle has a colour
+
+
+def test_3mf_parts_mode_gives_each_part_its_own_colour(tmp_path):
+    plate = cadpipe.Pipe([[0, 0, 0], [0.1, 0, 0]], 0.02, sides=12)
+    asm = cadpipe.Assembly(units="mm", name="cell")
+    asm.add("duct", plate, color="#ff0000")
+    asm.add("plate", cadpipe.Pipe([[0, 0.1, 0], [0.1, 0.1, 0]], 0.02, sides=8),
+            color="#0000ff")
+    colours, warnings = lib3mf_colours(asm.export(tmp_path / "cell.3mf", mode="parts"))
+    assert warnings == 0
+    assert colours == {"duct": {(255, 0, 0)}, "plate": {(0, 0, 255)}}
+
+
+# -- Khronos glTF validator ------------------------------------------------------------
+def gltf_report(path):
+    script = ("const v = require(process.argv[1]); const fs = require('fs');"
+              "v.validateBytes(new Uint8Array(fs.readFileSync(process.argv[2])))"
+              ".then(r => console.log(JSON.stringify(r.issues)))"
+              ".catch(e => { console.error(e); process.exit(2); });")
+    run = subprocess.run(["node", "-e", script, str(VALIDATOR), str(path)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout)
+
+
+def test_gltf_validator_finds_no_problem_in_the_demo_scene(demo):
+    issues = gltf_report(demo / "scene.glb")
+    assert issues["numErrors"] == 0 and issues["numWarnings"] == 0, issues["messages"][:5]
+
+
+def test_gltf_validator_finds_no_error_in_each_example(example):
+    folder, stem = example
+    issues = gltf_report(folder / f"{stem}.glb")
+    assert issues["numErrors"] == 0 and issues["numWarnings"] == 0, issues["messages"][:5]
+
+
+# -- AR Quick Look (usdz) ---------------------------------------------------------------
+#: prim types AR Quick Look draws (the ARKit rules of usd-core's former compliance checker)
+ARKIT_PRIM_TYPES = {"", "Scope", "Xform", "Camera", "Shader", "Material", "Mesh", "Sphere",
+                    "Cube", "Cylinder", "Cone", "Capsule", "GeomSubset", "Points",
+                    "SkelRoot", "Skeleton", "SkelAnimation", "BlendShape", "SpatialAudio"}
+ARKIT_SHADERS = {"UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d"}
+
+
+def arkit_problems(path):
+    """What keeps a .usdz from AR Quick Look: usd-core's usdz validators, Y up, a binary
+    root layer alone in the package, and only the prim and shader types ARKit knows."""
+    import zipfile
+
+    from pxr import Usd, UsdGeom, UsdShade, UsdValidation
+
+    wanted = {"UsdzValidators", "UsdGeomValidators", "UsdShadeValidators", "UsdCoreValidators"}
+    validators = [v for v in UsdValidation.ValidationRegistry().GetOrLoadAllValidators()
+                  if wanted & set(v.GetMetadata().GetKeywords())]
+    stage = Usd.Stage.Open(str(path))
+    problems = [f"{e.GetName()}: {e.GetMessage()}"
+                for e in UsdValidation.ValidationContext(validators).Validate(stage)]
+    if UsdGeom.GetStageUpAxis(stage) != UsdGeom.Tokens.y:
+        problems.append("upAxis is not Y")
+    with zipfile.ZipFile(path) as package:
+        names = package.namelist()
+    if len(names) != 1 or not names[0].endswith(".usdc"):
+        problems.append(f"package holds {names}, not one binary layer")
+    for prim in stage.Traverse():
+        if prim.GetTypeName() not in ARKIT_PRIM_TYPES:
+            problems.append(f"{prim.GetPath()}: prim type {prim.GetTypeName()}")
+        if prim.IsA(UsdShade.Shader) and UsdShade.Shader(prim).GetIdAttr().Get() not in \
+                ARKIT_SHADERS:
+            problems.append(f"{prim.GetPath()}: shader {UsdShade.Shader(prim).GetIdAttr().Get()}")
+    return problems
+
+
+def test_the_demo_usdz_follows_the_arkit_rules(demo):
+    assert arkit_problems(demo / "scene.usdz") == []
+
+
+def test_each_example_usdz_follows_the_arkit_rules(example):
+    folder, stem = example
+    assert arkit_problems(folder / f"{stem}.usdz") == []
+
+
+# -- round trips through cadpipe's own readers ------------------------------------------
+ROUND_TRIP = ("usda", "usdc", "usdz", "glb", "3mf", "obj", "ply", "stl")
+#: formats that store part names (STL and PLY store none)
+NAMED = {"usda", "usdc", "usdz", "glb", "3mf", "obj"}
+#: formats that store colours (per face or per part)
+COLOURED = {"usda", "usdc", "usdz", "glb", "ply"}
+
+
+@pytest.fixture(scope="module")
+def two_part_scene():
+    duct = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [40, 0, 10], [60, 30, 20]], step=2),
+                        4, sides=16).mesh()
+    rod = cadpipe.Pipe([[0, 30, 0], [0, 30, 50]], 3, sides=8).mesh()
+    move = np.eye(4)
+    move[:3, 3] = [10, 0, 5]
+    return Scene("cell", (ScenePart("duct", duct, color=(1.0, 0.0, 0.0), transform=move),
+                          ScenePart("rod", rod, color=(0.0, 0.0, 1.0))), units="mm")
+
+
+@pytest.mark.parametrize("suffix", ROUND_TRIP)
+def test_every_format_reads_back_with_its_parts_names_colours_and_extent(
+        tmp_path, two_part_scene, suffix):
+    scene = two_part_scene
+    back = load_scene(export(scene, tmp_path / f"cell.{suffix}"))
+    scale = back.scale_to("mm")          # compare in the scene's own unit
+    expected = np.array([p.world_mesh().bounds for p in scene.parts])
+    found = np.array([p.world_mesh(scale).bounds for p in back.parts])
+    if suffix in NAMED:
+        assert [p.name for p in back.parts] == ["duct", "rod"]
+        np.testing.assert_allclose(found, expected, rtol=1e-6, atol=1e-5)
+    else:                                 # one mesh: every part in one
+        np.testing.assert_allclose(found[0], [expected[:, 0].min(0), expected[:, 1].max(0)],
+                                   rtol=1e-6, atol=1e-5)
+    if suffix in COLOURED:
+        colours = set()
+        for part in back.parts:
+            painted = labelled(back, part)
+            colours |= {tuple(np.round(c, 2)) for c in painted.colors}
+        assert colours == {(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)}
+    for part in back.parts:
+        assert part.world_mesh().is_watertight
+
+
+@pytest.mark.parametrize("suffix", ["glb", "usdz", "3mf", "obj"])
+def test_check_and_view_work_per_part_on_cadpipe_files(tmp_path, two_part_scene, suffix,
+                                                       capsys):
+    target = export(two_part_scene, tmp_path / f"cell.{suffix}")
+    assert main(["check", str(target), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [p["name"] for p in report["parts"]] == ["duct", "rod"]
+    # glTF is metres by definition, OBJ metres by default (as Blender reads it)
+    assert report["units"] == ("m" if suffix in ("glb", "obj") else "mm")
+    assert main(["view", str(target), "-o", str(tmp_path / "view"),
+                 "--highlight", "rod"]) == 0
+
+
+def test_a_z_up_scene_reads_back_z_up_from_y_up_files(tmp_path, two_part_scene):
+    for suffix in ("glb", "usdz"):
+        back = load_scene(export(two_part_scene, tmp_path / f"cell.{suffix}"))
+        rod = back.parts[1].world_mesh(back.scale_to("mm"))
+        assert np.ptp(rod.vertices[:, 2]) == pytest.approx(50, rel=1e-6)   # still upright
+
+
+def test_as_scene_of_a_loaded_file_is_its_scene(tmp_path, two_part_scene):
+    scene = load_scene(export(two_part_scene, tmp_path / "cell.glb"))
+    assert as_scene(scene) is scene
