@@ -4,6 +4,7 @@ The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
 :class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then export.
 """
 
+from cadpipe import batch  # noqa: F401  (cadpipe.batch.run)
 from cadpipe.solids import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
 from cadpipe.solids.assembly import Assembly
 from cadpipe.collision import CollisionWorld

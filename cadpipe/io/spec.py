@@ -373,13 +373,16 @@ def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
     return Spec(ctx.file, assembly, tuple(made), cell)
 
 
-def read(spec_path):
+def read(spec_path, data=None):
     """Read a TOML or JSON spec into a :class:`Spec` (assembly, outputs and cell).
 
-    Raises :class:`SpecError` naming the file, the key path and what was expected.
+    ``data``, when given, is the spec's table already parsed (a template with its
+    parameters filled in, from :mod:`cadpipe.batch`); files it names still resolve
+    relative to ``spec_path``'s folder. Raises :class:`SpecError` naming the file, the
+    key path and what was expected.
     """
     file = FilePath(spec_path)
-    return SpecContext(file).call(_spec, _parse(file))
+    return SpecContext(file).call(_spec, _parse(file) if data is None else data)
 
 
 def load(spec_path):
