@@ -6,7 +6,7 @@ import trimesh
 
 import cadpipe
 from cadpipe import CollisionWorld, InputError, Mesh, MeshError, Path, Pipe
-from cadpipe.collision import STAGES, Box, Capsule, Sphere, bounds
+from cadpipe.collision import STAGES, Box, Capsule, Sphere
 
 
 def shift(x=0.0, y=0.0, z=0.0):
@@ -51,7 +51,7 @@ def test_same_group_pairs_are_self_collisions_and_come_first():
     assert [(a, b, d.phase) for a, b, d in report.collisions] == [
         ("l2", "l3", "self"), ("tool", "obstacle", "world")]
     assert report.allowed == [("l1", "l2", "adjacent links")]
-    assert world.allowed() == [("l1", "l2", "adjacent links")]
+    assert world.allowed == [("l1", "l2", "adjacent links")]
 
 
 def test_stop_after_self_collision_leaves_the_rest_unchecked():
@@ -152,19 +152,12 @@ def test_inside_tells_where_a_tool_path_leaves_the_pipe():
     assert outside.exit_segment == 0 and outside.exit_fraction == 0.0
 
 
-def test_sweep_and_prune_matches_all_pairs():
-    rng = np.random.default_rng(4)
-    lo = rng.uniform(0, 10, (300, 3))
-    hi = lo + rng.uniform(0, 1.5, (300, 3))
-    i, j = np.triu_indices(300, k=1)
-    keep = bounds.boxes_overlap(lo[i], hi[i], lo[j], hi[j])
-    np.testing.assert_array_equal(bounds.sweep_and_prune(lo, hi),
-                                  np.stack([i[keep], j[keep]], axis=1))
-    world = CollisionWorld()                 # a scene large enough to sweep
-    for k in range(bounds.SWEEP_MIN_OBJECTS + 2):
+def test_a_large_scene_finds_exactly_the_touching_neighbours():
+    world = CollisionWorld()
+    for k in range(60):
         world.add(f"s{k}", Sphere(0.3), transform=shift(0.5 * k))
     assert [(a, b) for a, b, _ in world.check().collisions] == [
-        (f"s{k}", f"s{k + 1}") for k in range(bounds.SWEEP_MIN_OBJECTS + 1)]
+        (f"s{k}", f"s{k + 1}") for k in range(59)]
 
 
 def test_report_to_dict_is_plain_data():

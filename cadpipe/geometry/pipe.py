@@ -10,6 +10,7 @@ from functools import cached_property, partial
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_int, as_positive
 from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
@@ -113,8 +114,8 @@ class Pipe:
         if self.corners == "round":
             bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
             self.bend_radius = float(as_positive(bend, "bend_radius"))
-            source, index = source.fillet(self.bend_radius)
-            radii = radii[index]
+            radii = radii[source.fillet_sources(self.bend_radius)]
+            source = source.filleted(self.bend_radius)
         else:
             self.bend_radius = None
         self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
@@ -131,8 +132,8 @@ class Pipe:
 
     def trimmed(self, start=0.0, end=0.0):
         """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
-        path, arc = self.path.trimmed(start, end)
-        radii = np.interp(arc, self.path.arc_length, self.radii)
+        path = self.path.trimmed(start, end)
+        radii = np.interp(start + path.arc_length, self.path.arc_length, self.radii)
         return Pipe(path, radii, **self._settings)
 
     @property
@@ -185,22 +186,29 @@ class Pipe:
         """
         return self._tubes.rings(slice(None), self.sides if sides is None else sides)
 
+    @property
     def attributes(self):
-        """The parameters that made this pipe, for exporters' metadata."""
-        return {"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+        """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
+        return _deprecated.Attributes({"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
                 "radius_max": float(self.radii.max()), "path_length": self.path.length,
                 "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
-                "envelope": self.envelope, "frame": self.frame, "corners": self.corners}
+                "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
+                                      "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
     def self_intersections(self):
+        """Deprecated: :meth:`self_intersection_findings`."""
+        _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
+        return self.self_intersection_findings()
+
+    def self_intersection_findings(self):
         """Where the tube would cut through itself: a list of human-readable findings.
 
         Checks miter limits, rings that overlap within a segment (the radius exceeds
         the local bend radius) and non-neighbouring parts of the tube closer than
         the sum of their radii.
         """
-        return self._tubes.self_intersections()[0]
+        return self._tubes.self_intersection_findings()[0]
 
     def mesh(self):
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
@@ -208,7 +216,7 @@ class Pipe:
         Raises :class:`GeometryError` if the tube intersects itself, unless the pipe
         was made with ``repair=True``.
         """
-        problems = self.self_intersections()
+        problems = self.self_intersection_findings()
         if problems:
             if not self.repair:
                 raise GeometryError(f"the pipe intersects itself: {problems[0]}"
@@ -217,7 +225,7 @@ class Pipe:
                                     + "; smooth the path, reduce the radius, or pass repair=True")
             return self._repaired_mesh()
         vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-        return Mesh.trusted(vertices, faces, attributes=self.attributes())
+        return Mesh.trusted(vertices, faces, attributes=self.attributes)
 
     def surface(self, *, cap_start=True, cap_end=True):
         """Vertices and faces of the side surface plus the requested end caps.
@@ -233,6 +241,11 @@ class Pipe:
         return vertices, faces
 
     def units(self, overlap=0.0):
+        """Deprecated: :meth:`convex_pieces` (``units`` is a length unit elsewhere)."""
+        _deprecated.warn("Pipe.units()", "Pipe.convex_pieces()")
+        return self.convex_pieces(overlap)
+
+    def convex_pieces(self, overlap=0.0):
         """Convex pieces whose union is the tube: each path unit, plus round caps.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
@@ -258,9 +271,9 @@ class Pipe:
         import manifold3d
 
         overlap = 1e-6 * float(self.ring_radii.max())
-        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units(overlap)]
+        hulls = [manifold3d.Manifold.hull_points(p) for p in self.convex_pieces(overlap)]
         solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
-        return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})
+        return Mesh.from_manifold(solid, attributes={**self.attributes, "repaired": True})
 
 
 def tubes_of(pipes):

@@ -98,7 +98,7 @@ class Tubes:
         product."""
         return np.matmul(ring_basis(sides), self.axes[rows])
 
-    def self_intersections(self):
+    def self_intersection_findings(self):
         """Per tube, a list of findings where it would cut through itself (see
         :mod:`cadpipe.geometry.clearance`)."""
         return clearance.tube_self_intersections(self)
