@@ -221,7 +221,7 @@ def clearance(world, posed, hulls, dense, at):
     robot, group = posed.robot, posed.group
     links = list(robot.link_meshes)
     others = [n for n in world.names if world.group(n) != group]
-    allowed = {frozenset(p[:2]) for p in world.allowed()}
+    allowed = {frozenset(p[:2]) for p in world.allowed}
     pairs = [(i, j) for i, a in enumerate(links) for j, b in enumerate(others)
              if frozenset((a, b)) not in allowed]
     if not pairs:
