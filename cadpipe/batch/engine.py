@@ -155,6 +155,11 @@ def run(jobs, out, *, workers=None, scheduler=None, force=False, progress=None):
         raise InputError(f"expected a whole number >= 0, got {workers!r}", key="workers")
     batch = list(jobs) if isinstance(jobs, (list, tuple)) and \
         all(isinstance(j, Job) for j in jobs) and jobs else read_jobs(jobs)
+    names = [job.name for job in batch]
+    if len(set(names)) != len(names):
+        twice = next(n for n in names if names.count(n) > 1)
+        raise InputError(f"two jobs are named {twice!r}; each job needs its own folder",
+                         key="jobs")
     out = ensure_folder(FilePath(out).resolve())
     serial = workers == 0 and scheduler is None
     if not serial:
