@@ -70,9 +70,6 @@ def _client(stack, workers, scheduler):
     processes (default: one per core); closed with ``stack``."""
     distributed = _needs_dask()
     if scheduler is not None:
-        if workers is not None:
-            raise InputError("give workers or a scheduler, not both: a cluster brings its own "
-                             "workers", key="workers")
         try:
             return stack.enter_context(distributed.Client(scheduler, timeout="10s"))
         except (OSError, TimeoutError, ValueError) as exc:
@@ -95,30 +92,30 @@ def _lost(job, exc):
     return row(job, "failed", text)
 
 
-def _distributed(jobs, out, workers, scheduler, finish, tally):
-    with ExitStack() as stack:
-        client = _client(stack, workers, scheduler)
-        distributed = _needs_dask()
-        slots = max(1, sum(client.nthreads().values()))
-        token = uuid.uuid4().hex[:8]
-        futures = {client.submit(execute, job, str(out), key=f"cadpipe-{token}-{job.name}"):
-                   job for job in jobs}
-        left = set(futures)
-        tally.running = min(len(left), slots)
-        try:
-            for future in distributed.as_completed(futures):
-                job = futures[future]
-                try:
-                    record = future.result()
-                except Exception as exc:      # noqa: BLE001  (recorded, the batch goes on)
-                    record = _lost(job, exc)
-                # released, so a worker dying with this result in memory does not run it again
-                future.release()
-                left.discard(future)
-                tally.running = min(len(left), slots)
-                finish(record)
-        finally:
-            client.cancel(list(left))       # after Ctrl-C: nothing more is started
+def _distributed(client, jobs, out, finish, tally):
+    """Run ``jobs`` on ``client``'s cluster, calling ``finish(record)`` as each completes."""
+    from distributed import as_completed
+
+    slots = max(1, sum(client.nthreads().values()))
+    token = uuid.uuid4().hex[:8]
+    futures = {client.submit(execute, job, str(out), key=f"cadpipe-{token}-{job.name}"): job
+               for job in jobs}
+    left = set(futures)
+    tally.running = min(len(left), slots)
+    try:
+        for future in as_completed(futures):
+            job = futures[future]
+            try:
+                record = future.result()
+            except Exception as exc:          # noqa: BLE001  (recorded, the batch goes on)
+                record = _lost(job, exc)
+            # released, so a worker dying with this result in memory does not run it again
+            future.release()
+            left.discard(future)
+            tally.running = min(len(left), slots)
+            finish(record)
+    finally:
+        client.cancel(list(left))           # after Ctrl-C: nothing more is started
 
 
 def run(jobs, out, *, workers=None, scheduler=None, force=False, progress=None):
@@ -160,10 +157,13 @@ def run(jobs, out, *, workers=None, scheduler=None, force=False, progress=None):
         twice = next(n for n in names if names.count(n) > 1)
         raise InputError(f"two jobs are named {twice!r}; each job needs its own folder",
                          key="jobs")
-    out = ensure_folder(FilePath(out).resolve())
-    serial = workers == 0 and scheduler is None
+    if workers is not None and scheduler is not None:
+        raise InputError("give workers or a scheduler, not both: a cluster brings its own "
+                         "workers", key="workers")
+    out = FilePath(out).resolve()
+    serial = workers == 0
     if not serial:
-        _needs_dask()
+        _needs_dask()           # the same answer whether or not anything is left to run
     started = report.now()
     tally, records = Tally(len(batch)), {}
     notify = progress or (lambda record, tally: None)
@@ -173,30 +173,32 @@ def run(jobs, out, *, workers=None, scheduler=None, force=False, progress=None):
         tally.add(record)
         notify(record, tally)
 
-    todo = []
-    for job in batch:
-        done = None if force else report.completed(job, out)
-        if done is None:
-            todo.append(job)
-        else:
-            finish({**done, "run": {**(done.get("run") or {}), "reused": True}})
-    notify(None, tally)
+    done = {job.name: None if force else report.completed(job, out) for job in batch}
+    todo = [job for job in batch if done[job.name] is None]
     engine = "serial" if serial else f"dask scheduler {scheduler}" if scheduler else \
         f"dask local cluster of {workers or os.cpu_count()} processes"
-    interrupted = False
-    try:
-        if serial:
-            for job in todo:
-                tally.running = 1
-                finish(execute(job, out))
-            tally.running = 0
-        elif todo:
-            _distributed(todo, out, workers, scheduler, finish, tally)
-    except KeyboardInterrupt:
-        interrupted = True
-        raise
-    finally:
-        rows = tuple(records.get(job.name) or row(job, "not run") for job in batch)
-        files = report.write(out, list(rows), engine=engine, interrupted=interrupted,
-                             started=started)
+    with ExitStack() as stack:
+        client = _client(stack, workers, scheduler) if todo and not serial else None
+        ensure_folder(out)
+        for job in batch:
+            if done[job.name] is not None:
+                previous = done[job.name]
+                finish({**previous, "run": {**(previous.get("run") or {}), "reused": True}})
+        notify(None, tally)
+        interrupted = False
+        try:
+            if serial:
+                for job in todo:
+                    tally.running = 1
+                    finish(execute(job, out))
+                tally.running = 0
+            elif todo:
+                _distributed(client, todo, out, finish, tally)
+        except KeyboardInterrupt:
+            interrupted = True
+            raise
+        finally:
+            rows = tuple(records.get(job.name) or row(job, "not run") for job in batch)
+            files = report.write(out, list(rows), engine=engine, interrupted=interrupted,
+                                 started=started)
     return Summary(rows, tuple(files))
