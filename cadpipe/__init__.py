@@ -24,6 +24,11 @@ __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "In
            "splice"]
 __all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "load"]
 
+from cadpipe import limits  # noqa: E402,F401  (cadpipe.limits.using(max_triangles=...))
+from cadpipe.errors import LimitError  # noqa: E402
+
+__all__ += ["LimitError", "limits"]
+
 from cadpipe import _moved
 
 _moved.install()

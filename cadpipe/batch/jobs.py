@@ -20,7 +20,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from cadpipe.batch.params import check_names, csv_rows, fill, parameter_sets, placeholders
-from cadpipe.errors import InputError, SpecError
+from cadpipe.errors import CadpipeError, InputError, SpecError
 from cadpipe.io.spec import Number, SpecContext, _parse
 
 KINDS = ("build", "trajectory")
@@ -330,6 +330,9 @@ def read_jobs(source):
         return SpecContext(FilePath("jobs")).call(_jobs_table, {"jobs": list(source)})
     file = FilePath(source)
     if not file.is_file():
-        raise SpecError(f"{file}: is a folder, not a JOBS file" if file.is_dir() else
-                        f"{file}: no such JOBS file")
-    return SpecContext(file).call(_jobs_table, _parse(file))
+        raise SpecError("is a folder, not a JOBS file" if file.is_dir() else
+                        "no such JOBS file", file=file)
+    try:
+        return SpecContext(file).call(_jobs_table, _parse(file))
+    except CadpipeError as exc:
+        raise exc.at(file=file) from exc.__cause__

@@ -45,31 +45,37 @@ def place(points, pads, starts, slack, obb_centre, obb_axes, ids, poses, kdop, c
     ``obb_centre`` (N, 3), ``obb_axes`` (N, 3, 3) the local OBBs.
     """
     for e in range(len(ids)):
-        i, row, m = ids[e], rows[e], poses[e]
-        margin = slack[i] + _EPS64 * max(abs(m[0, 3]), abs(m[1, 3]), abs(m[2, 3]))
-        for d in range(9):
-            # the world direction turned into the object's frame
-            u0 = KDOP_DIRECTIONS[d, 0] * m[0, 0] + KDOP_DIRECTIONS[d, 1] * m[1, 0] \
-                + KDOP_DIRECTIONS[d, 2] * m[2, 0]
-            u1 = KDOP_DIRECTIONS[d, 0] * m[0, 1] + KDOP_DIRECTIONS[d, 1] * m[1, 1] \
-                + KDOP_DIRECTIONS[d, 2] * m[2, 1]
-            u2 = KDOP_DIRECTIONS[d, 0] * m[0, 2] + KDOP_DIRECTIONS[d, 1] * m[1, 2] \
-                + KDOP_DIRECTIONS[d, 2] * m[2, 2]
-            low, high = np.inf, -np.inf
-            for s in range(starts[i], starts[i + 1]):
-                p = u0 * points[s, 0] + u1 * points[s, 1] + u2 * points[s, 2]
-                low = min(low, p - pads[s])
-                high = max(high, p + pads[s])
-            offset = KDOP_DIRECTIONS[d, 0] * m[0, 3] + KDOP_DIRECTIONS[d, 1] * m[1, 3] \
-                + KDOP_DIRECTIONS[d, 2] * m[2, 3]
-            kdop[row, 0, d] = low + offset - margin
-            kdop[row, 1, d] = high + offset + margin
-        for r in range(3):
-            centre[row, r] = m[r, 3] + m[r, 0] * obb_centre[i, 0] + m[r, 1] * obb_centre[i, 1] \
-                + m[r, 2] * obb_centre[i, 2]
-            for c in range(3):
-                axes[row, r, c] = m[r, 0] * obb_axes[i, 0, c] + m[r, 1] * obb_axes[i, 1, c] \
-                    + m[r, 2] * obb_axes[i, 2, c]
+        _place_one(points, pads, starts, slack, obb_centre, obb_axes, ids[e], poses[e],
+                   kdop[rows[e]], centre[rows[e]], axes[rows[e]])
+
+
+@_jit
+def _place_one(points, pads, starts, slack, obb_centre, obb_axes, i, m, kdop, centre, axes):
+    """Object ``i`` at pose ``m``: its (2, 9) 18-DOP, (3,) OBB centre, (3, 3) axes."""
+    margin = slack[i] + _EPS64 * max(abs(m[0, 3]), abs(m[1, 3]), abs(m[2, 3]))
+    for d in range(9):
+        # the world direction turned into the object's frame
+        u0 = KDOP_DIRECTIONS[d, 0] * m[0, 0] + KDOP_DIRECTIONS[d, 1] * m[1, 0] \
+            + KDOP_DIRECTIONS[d, 2] * m[2, 0]
+        u1 = KDOP_DIRECTIONS[d, 0] * m[0, 1] + KDOP_DIRECTIONS[d, 1] * m[1, 1] \
+            + KDOP_DIRECTIONS[d, 2] * m[2, 1]
+        u2 = KDOP_DIRECTIONS[d, 0] * m[0, 2] + KDOP_DIRECTIONS[d, 1] * m[1, 2] \
+            + KDOP_DIRECTIONS[d, 2] * m[2, 2]
+        low, high = np.inf, -np.inf
+        for s in range(starts[i], starts[i + 1]):
+            p = u0 * points[s, 0] + u1 * points[s, 1] + u2 * points[s, 2]
+            low = min(low, p - pads[s])
+            high = max(high, p + pads[s])
+        offset = KDOP_DIRECTIONS[d, 0] * m[0, 3] + KDOP_DIRECTIONS[d, 1] * m[1, 3] \
+            + KDOP_DIRECTIONS[d, 2] * m[2, 3]
+        kdop[0, d] = low + offset - margin
+        kdop[1, d] = high + offset + margin
+    for r in range(3):
+        centre[r] = m[r, 3] + m[r, 0] * obb_centre[i, 0] + m[r, 1] * obb_centre[i, 1] \
+            + m[r, 2] * obb_centre[i, 2]
+        for c in range(3):
+            axes[r, c] = m[r, 0] * obb_axes[i, 0, c] + m[r, 1] * obb_axes[i, 1, c] \
+                + m[r, 2] * obb_axes[i, 2, c]
 
 
 @_jit
@@ -110,18 +116,74 @@ def _obb_apart(ca, xa, ha, cb, xb, hb):
 
 
 @_jit
+def _decide_pair(kdop, centre, axes, half_a, half_b, a, b):
+    """The first stage that proves slots ``a`` and ``b`` apart, or :data:`NARROW`."""
+    for d in range(9):
+        if kdop[a, 0, d] > kdop[b, 1, d] or kdop[b, 0, d] > kdop[a, 1, d]:
+            return AABB if d < 3 else KDOP
+    if _obb_apart(centre[a], axes[a], half_a, centre[b], axes[b], half_b):
+        return OBB
+    return NARROW
+
+
+@_jit
 def decide(kdop, centre, axes, half_of, slot_a, slot_b, codes):
     """For each entry ``(slot_a[k], slot_b[k])`` write into ``codes[k]`` the first
     stage that proves it apart (:data:`AABB`, :data:`KDOP`, :data:`OBB`) or
     :data:`NARROW`. ``half_of`` (R, 3) is each slot's OBB half extents."""
     for k in range(len(slot_a)):
         a, b = slot_a[k], slot_b[k]
-        code = NARROW
-        for d in range(9):
-            if kdop[a, 0, d] > kdop[b, 1, d] or kdop[b, 0, d] > kdop[a, 1, d]:
-                code = AABB if d < 3 else KDOP
-                break
-        if code == NARROW and _obb_apart(centre[a], axes[a], half_of[a], centre[b], axes[b],
-                                         half_of[b]):
-            code = OBB
-        codes[k] = code
+        codes[k] = _decide_pair(kdop, centre, axes, half_of[a], half_of[b], a, b)
+
+
+@_jit
+def refresh(points, pads, starts, slack, obb_centre, obb_axes, half, poses, versions,
+            placed_at, kdop, centre, axes, first, second, same, chosen, at_a, at_b, code,
+            colliding, exact, hits):
+    """One state where the objects stand, brought up to date in one call.
+
+    Objects whose pose version (``versions`` (N,)) differs from the one their
+    bounds were placed at (``placed_at``) are placed again; every ``chosen`` pair
+    whose answer is older than its objects' versions (``at_a``, ``at_b``) is
+    tried by the bounding volumes, and the answer stored (``code``,
+    ``colliding``) where one proves it apart. The pairs left for the exact
+    phase are written to ``exact``, self pairs (``same``) first, each group in
+    pair order; returns how many. ``hits`` (2,) is set to whether a chosen pair
+    whose answer holds collides: a self pair, another pair.
+    """
+    for i in range(len(versions)):
+        if placed_at[i] != versions[i]:
+            _place_one(points, pads, starts, slack, obb_centre, obb_axes, i, poses[i],
+                       kdop[i], centre[i], axes[i])
+            placed_at[i] = versions[i]
+    count = 0
+    for own in (True, False):
+        for k in range(len(first)):
+            if not chosen[k] or same[k] != own:
+                continue
+            a, b = first[k], second[k]
+            if at_a[k] == versions[a] and at_b[k] == versions[b]:
+                if colliding[k]:
+                    hits[0 if own else 1] = True
+                continue
+            found = _decide_pair(kdop, centre, axes, half[a], half[b], a, b)
+            if found == NARROW:
+                exact[count] = k
+                count += 1
+            else:
+                code[k], colliding[k] = found, False
+                at_a[k], at_b[k] = versions[a], versions[b]
+    return count
+
+
+@_jit
+def summarize(chosen, same, allowed, stopped, first, second, versions, at_a, at_b, code,
+              colliding, out_code, out_colliding, allowed_code, unchecked_code):
+    """A report's (P,) stage codes and collisions from the stored answers: a chosen
+    pair whose answer holds keeps it (world pairs only when not ``stopped``),
+    allowed pairs get ``allowed_code``, every other pair ``unchecked_code``."""
+    for k in range(len(first)):
+        holds = chosen[k] and at_a[k] == versions[first[k]] and at_b[k] == versions[second[k]]
+        holds = holds and (same[k] or not stopped)
+        out_code[k] = allowed_code if allowed[k] else code[k] if holds else unchecked_code
+        out_colliding[k] = holds and colliding[k]

@@ -43,7 +43,7 @@ import numpy as np
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
-from cadpipe.solids.transform import is_rigid
+from cadpipe.solids.transform import as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow
@@ -69,18 +69,9 @@ def as_pose(transform, name):
 def as_poses(transforms, name, shape=None):
     """Rigid 4x4 float matrices ``(..., 4, 4)`` (exactly ``shape`` when given), or
     :class:`InputError` naming the object."""
-    try:
-        m = np.array(transforms, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError("transform must be a 4x4 matrix of numbers", part=name) from None
-    if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
+    m = as_matrix(transforms, part=name, stack=True, rigid=True)
+    if shape is not None and m.shape != shape:
         raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
-    if not np.isfinite(m).all():
-        raise InputError("transform has NaN or infinite entries; pass a finite matrix",
-                         part=name)
-    if not is_rigid(m):
-        raise InputError("transform must be rigid (a rotation and a translation); "
-                         "scale or mirror the mesh itself instead", part=name)
     return m
 
 
@@ -372,12 +363,18 @@ class Scene:
             raise InputError(f"a robot with group {group!r} is already in the world; "
                              "pass another group=")
         base = as_pose(transform, f"robot {robot.name}")
+        shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
-            self.add(link, robot.link_meshes[link], transform=pose, group=group)
+            self.add(link, shapes[link], transform=pose, group=group)
         for a, b, reason in robot.allowed_pairs:
             self.allow(a, b, reason)
         self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
         return self
+
+    def robot(self, group):
+        """``(robot, base pose)`` of the robot added as ``group``."""
+        robot, base, _ = self._robot(group)
+        return robot, base.copy()
 
     def _robot(self, group):
         if group not in self._robots:
@@ -478,42 +475,38 @@ class Checker:
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
         others are ``"allowed"`` or ``"not checked"``."""
-        table, scene = self.layout.table, self.scene
+        layout, scene = self.layout, self.scene
+        table, placed = layout.table, self._placed
         answers = self._answers.setdefault(bool(certify), _Answers(len(table)))
         versions = scene._pose_versions
-        k = (chosen & ~answers.fresh(versions, table)).nonzero()[0]
-        kdop, centre, axes = self.placed()
-        codes = np.empty(len(k), np.int8)
-        funnel.decide(kdop, centre, axes, self.layout.half, table.first[k], table.second[k],
-                      codes)
-        boxed = codes != funnel.NARROW
-        answers.store(k[boxed], codes[boxed], False, versions, table)
-        exact = k[~boxed]
-        # self pairs first, each group in the pairs' order; stop where asked to
-        stopped = False
-        for own in (True, False):
-            if first_hit and (chosen & answers.colliding & answers.fresh(versions, table)).any():
+        exact = np.empty(len(table), np.int64)
+        hits = np.zeros(2, bool)                     # (a self pair, another pair) collides
+        count = funnel.refresh(layout.points, layout.pads, layout.starts, layout.slack,
+                               layout.obb_centre, layout.obb_axes, layout.half, scene._poses,
+                               versions, placed.at, placed.kdop, placed.centre, placed.axes,
+                               table.first, table.second, table.same, chosen, answers.at_a,
+                               answers.at_b, answers.code, answers.colliding, exact, hits)
+        if answers.certificates:                     # pairs the boxes have decided since
+            for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
+                del answers.certificates[k]
+        # the exact phase, self pairs first; stop where asked to
+        for pair in exact[:count].tolist():
+            own = table.same[pair]
+            if (first_hit and hits.any()) or (stop_after_self and not own and hits[0]):
                 break
-            if not own and stop_after_self:
-                stopped = bool((chosen & table.same & answers.colliding
-                                & answers.fresh(versions, table)).any())
-                if stopped:
-                    break
-            for pair in exact[table.same[exact] == own]:
-                i, j = table.first[pair], table.second[pair]
-                code, touching, certs = self._settle(i, j, scene._poses[i][None],
-                                                     scene._poses[j][None], certify)
-                answers.store(np.array([pair]), code, touching, versions, table, certs.get(0))
-                if first_hit and touching[0]:
-                    break
-        decided = chosen & answers.fresh(versions, table)
-        if stopped:
-            decided &= table.same
-        codes = np.where(decided, answers.code, _CODE["not checked"]).astype(np.int8)
-        codes[table.allowed] = _CODE["allowed"]
-        certificates = {k: c for k, c in answers.certificates.items() if decided[k]}
-        return CollisionReport(table, codes, decided & answers.colliding, certificates,
-                               stopped)
+            i, j = table.first[pair], table.second[pair]
+            code, touching, certs = self._settle(i, j, scene._poses[i][None],
+                                                 scene._poses[j][None], certify)
+            answers.store(pair, code[0], touching[0], versions, table, certs.get(0))
+            hits[0 if own else 1] |= touching[0]
+        stopped = stop_after_self and bool(hits[0])
+        codes, colliding = np.empty(len(table), np.int8), np.empty(len(table), bool)
+        funnel.summarize(chosen, table.same, table.allowed, stopped, table.first, table.second,
+                         versions, answers.at_a, answers.at_b, answers.code, answers.colliding,
+                         codes, colliding, _CODE["allowed"], _CODE["not checked"])
+        certificates = {k: c for k, c in answers.certificates.items()
+                        if codes[k] == _CODE["certificate"]}
+        return CollisionReport(table, codes, colliding, certificates, stopped)
 
     def _involving(self, group):
         """(P,) mask of the pairs with an object of ``group``."""
@@ -608,13 +601,16 @@ class Checker:
                                         names=(self.scene._names[i], self.scene._names[j]))
                 if cert is not None:
                     certificates[e] = cert
+        exact = _CODE["analytic" if body_a.kind == body_b.kind == "chain" else "fcl"]
+        if not certificates:
+            touching, contained = narrow.collide(body_a, poses_a, body_b, poses_b)
+            return np.where(contained, _CODE["containment"], exact).astype(np.int8), touching, {}
         todo = np.ones(len(poses_a), bool)
         todo[list(certificates)] = False
         codes = np.full(len(poses_a), _CODE["certificate"], np.int8)
         touching = np.zeros(len(poses_a), bool)
         if todo.any():
             hit, contained = narrow.collide(body_a, poses_a[todo], body_b, poses_b[todo])
-            exact = _CODE["analytic" if body_a.kind == body_b.kind == "chain" else "fcl"]
             codes[todo] = np.where(contained, _CODE["containment"], exact)
             touching[todo] = hit
         return codes, touching, certificates
@@ -688,20 +684,13 @@ class _Answers:
         self.at_b = np.full(count, -1, np.int64)
         self.certificates = {}
 
-    def stale(self, versions_a, versions_b):
-        return (self.at_a != versions_a) | (self.at_b != versions_b)
-
-    def fresh(self, versions, table):
-        return ~self.stale(versions[table.first], versions[table.second])
-
     def store(self, k, code, colliding, versions, table, certificate=None):
-        """Answers for pairs ``k`` (K,), holding while their objects are at ``versions``."""
+        """The answer for pair ``k``, holding while its objects are at ``versions``."""
         self.code[k], self.colliding[k] = code, colliding
         self.at_a[k], self.at_b[k] = versions[table.first[k]], versions[table.second[k]]
-        for pair in k:
-            self.certificates.pop(int(pair), None)
+        self.certificates.pop(k, None)
         if certificate is not None:
-            self.certificates[int(k[0])] = certificate
+            self.certificates[k] = certificate
 
 
 # -- the world -----------------------------------------------------------------------
@@ -753,7 +742,14 @@ class CollisionWorld(Scene):
         """
         return self.checker.check(stop_after_self, certify, first_hit, only)
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False):
+    def check_motion(self, group, q_a, q_b, tolerance=None):
+        """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
+        ``q_b`` (a :class:`~cadpipe.collision.motion.MotionCheck`); see
+        :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
+        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
+
+    def check_path(self, group, configurations, stop_after_self=False, certify=False,
+                   between=False, tolerance=None):
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass; returns :class:`CollisionReports`.
 
@@ -762,7 +758,16 @@ class CollisionWorld(Scene):
         stands -- the motion between them is not swept -- and its report is
         the one :meth:`set_joints` then :meth:`check` would give. The robot
         stays where :meth:`set_joints` last put it.
+
+        With ``between=True`` the motion between consecutive configurations is
+        certified instead (conservative advancement, stopping at the first
+        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
         """
+        if between:
+            from cadpipe.collision import motion
+
+            return motion.check_motion(self, group, configurations,
+                                       motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
         return self.checker.check_moving(ids, poses, stop_after_self, certify)
@@ -789,6 +794,15 @@ class CollisionWorld(Scene):
     def distance(self, a, b):
         """See :meth:`Checker.distance`."""
         return self.checker.distance(a, b)
+
+    def distance_at(self, a, b, pose_a, pose_b, containment=True):
+        """Clearance (0 when touching) between ``a`` placed at ``pose_a`` and ``b`` at
+        ``pose_b``, rigid 4x4 poses; where they stand is unchanged. With
+        ``containment=False`` it is the distance between the boundaries (a solid
+        inside another is not seen), as a motion from a free state needs."""
+        i, j = self._find(a), self._find(b)
+        return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
+                                     containment)[0])
 
     def separate(self, a, b, step_degrees=None):
         """See :meth:`Checker.separate`."""

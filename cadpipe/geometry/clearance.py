@@ -99,9 +99,9 @@ def _samples(tubes, step):
     count = np.maximum(np.ceil(length / step), 2)
     if count.sum() > MAX_SAMPLES:
         g = int(np.argmax(count))
-        raise InputError(f"radius: {4 * step[g]:g} is too small for a path {length[g]:.6g} long: "
+        raise InputError(f"{4 * step[g]:g} is too small for a path {length[g]:.6g} long: "
                          f"checking the tube for self-intersection would take {count[g]:.3g} "
-                         "samples; use a larger radius or a shorter path")
+                         "samples; use a larger radius or a shorter path", key="radius")
     count = count.astype(np.int64)
     samples = Groups(count, closed)
     k = samples.local()

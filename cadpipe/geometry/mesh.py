@@ -61,6 +61,28 @@ def connected_labels(count, a, b):
     return connected_components(graph, directed=False)[1]
 
 
+def merge_tables(tables):
+    """The distinct entries of several label tables as one, in first-seen order.
+
+    Parameters
+    ----------
+    tables : sequence of sequences of hashable
+        Each mesh's (or part's) own labels: part names, ``(name, colour)`` pairs.
+
+    Returns
+    -------
+    merged : tuple
+        Every distinct entry once.
+    rows : list of (len(table),) int32 arrays
+        For each table, the row of ``merged`` each of its entries went to: relabel
+        faces with ``rows[k][labels]``.
+    """
+    index = {}
+    rows = [np.array([index.setdefault(k, len(index)) for k in t], np.int32).reshape(-1)
+            for t in tables]
+    return tuple(index), rows
+
+
 def _frozen(arr, dtype):
     arr = np.ascontiguousarray(arr, dtype=dtype)
     arr.flags.writeable = False
@@ -91,11 +113,11 @@ class Mesh:
         if faces.size == 0:
             faces = faces.reshape(0, 3)
         if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
-            raise InputError(f"faces: expected an (F, 3) array of vertex indices, got "
-                             f"shape {faces.shape} of {faces.dtype}")
+            raise InputError("expected an (F, 3) array of vertex indices, got "
+                             f"shape {faces.shape} of {faces.dtype}", key="faces")
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise InputError(f"faces: indices must lie in [0, {len(vertices) - 1}], "
-                             f"got [{faces.min()}, {faces.max()}]")
+            raise InputError(f"indices must lie in [0, {len(vertices) - 1}], "
+                             f"got [{faces.min()}, {faces.max()}]", key="faces")
         self._vertices = _frozen(vertices, np.float64)
         self._faces = _frozen(faces, np.int64)
         self._part_names = tuple(str(n) for n in part_names)
@@ -104,11 +126,11 @@ class Mesh:
         else:
             face_part = np.asarray(face_part)
             if face_part.shape != (len(faces),):
-                raise InputError(f"face_part: expected {len(faces)} part indices, "
-                                 f"got shape {face_part.shape}")
+                raise InputError(f"expected {len(faces)} part indices, "
+                                 f"got shape {face_part.shape}", key="face_part")
             names = len(self._part_names)
             if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
-                raise InputError("face_part: indices must point into part_names")
+                raise InputError("indices must point into part_names", key="face_part")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
@@ -194,8 +216,14 @@ class Mesh:
 
     @cached_property
     def volume(self):
-        """Signed volume by the divergence theorem: positive when faces point outward."""
-        t = self.triangles
+        """Signed volume by the divergence theorem: positive when faces point outward.
+
+        Summed about the vertices' mean, not the origin: far from the origin the
+        tetrahedra's volumes would be huge and cancel, losing every digit.
+        """
+        if len(self._faces) == 0:
+            return 0.0
+        t = self.triangles - self._vertices.mean(axis=0)
         return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property
@@ -315,22 +343,22 @@ class Mesh:
     def require_solid(self, name="mesh"):
         """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
         if not self.is_watertight:
-            raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
-                            "close the holes or repair it before using it as a solid")
+            raise MeshError("not a closed solid (open or non-manifold edges); "
+                            "close the holes or repair it before using it as a solid", part=name)
         if not self.is_winding_consistent:
-            raise MeshError(f"{name}: neighbouring faces disagree on orientation; "
-                            "make the winding consistent (e.g. trimesh's fix_normals)")
+            raise MeshError("neighbouring faces disagree on orientation; "
+                            "make the winding consistent (e.g. trimesh's fix_normals)", part=name)
         if self.volume <= 0:
-            raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
-                            "flip its faces")
+            raise MeshError(f"faces point inward (volume {self.volume:.6g}); "
+                            "flip its faces", part=name)
         return self
 
     # -- transforms -----------------------------------------------------------
     def transformed(self, matrix):
         """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors)."""
-        matrix = np.asarray(matrix, dtype=np.float64)
-        if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {matrix.shape}")
+        from cadpipe.solids.transform import as_matrix
+
+        matrix = as_matrix(matrix)
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
         return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
@@ -342,15 +370,10 @@ class Mesh:
         meshes = list(meshes)
         if not meshes:
             raise InputError("concatenate: expected at least one mesh")
-        names, index = [], {}
         offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
-        face_parts = []
-        for i, m in enumerate(meshes):
-            own = m.part_names or (f"part{i}",)
-            ids = np.array([index.setdefault(n, len(index)) for n in own], np.int32)
-            names = list(index)
-            fp = m.face_part if m.face_part is not None else np.zeros(len(m.faces), np.int32)
-            face_parts.append(ids[fp])
+        names, rows = merge_tables([m.part_names or (f"part{i}",) for i, m in enumerate(meshes)])
+        face_parts = [r[m.face_part if m.face_part is not None else np.zeros(len(m.faces), int)]
+                      for m, r in zip(meshes, rows)]
         return Mesh(np.concatenate([m.vertices for m in meshes]),
                     np.concatenate([m.faces + o for m, o in zip(meshes, offsets)]),
                     face_part=np.concatenate(face_parts), part_names=names)
@@ -397,9 +420,9 @@ class Mesh:
             tri_verts=self._faces.astype(np.uint64), **runs))
         status = solid.status()
         if status != manifold3d.Error.NoError:
-            raise MeshError(f"{name}: not a closed solid (manifold3d: {status.name}); it must "
+            raise MeshError(f"not a closed solid (manifold3d: {status.name}); it must "
                             "be a closed, consistently oriented surface: repair or close it "
-                            "first")
+                            "first", part=name)
         return solid
 
     @classmethod

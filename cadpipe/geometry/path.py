@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe import _deprecated
 from cadpipe._validate import as_points, as_positive
 from cadpipe._vec import cross, dot, norm, unit
@@ -50,8 +51,8 @@ class Path:
             pts, xyz = pts[:-1], xyz[:, :-1]
         need = 3 if closed else 2
         if len(pts) < need:
-            raise InputError(f"points: a{' closed' if closed else 'n open'} path needs at least "
-                             f"{need} distinct points, got {len(pts)} after dropping duplicates")
+            raise InputError(f"a{' closed' if closed else 'n open'} path needs at least "
+                             f"{need} distinct points, got {len(pts)} after dropping duplicates", key="points")
         pts = np.array(pts)                       # our own copy, frozen
         pts.flags.writeable = False
         self._points = pts
@@ -135,6 +136,8 @@ class Path:
         Corners are kept, so a polyline keeps its shape exactly.
         """
         step = float(as_positive(step, "step"))
+        limits.check("max_samples", float(np.sum(self.segment_lengths / step)),
+                     f"resampling a path {self.length:.6g} long every {step:g}", key="step")
         counts = np.maximum(np.ceil(self.segment_lengths / step).astype(np.int64), 1)
         runs = Groups(counts)
         seg, frac = runs.index, runs.local() / runs.spread(counts)
@@ -263,12 +266,21 @@ class Path:
 
     def transformed(self, matrix):
         """The path moved by a 4x4 homogeneous matrix."""
-        m = np.asarray(matrix, dtype=np.float64)
-        if m.shape != (4, 4) or not np.isfinite(m).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {m.shape}")
+        from cadpipe.solids.transform import as_matrix
+
+        m = as_matrix(matrix)
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
+    @classmethod
+    def from_trajectory(cls, robot, configurations, frame, step, base=None):
+        """The path of a robot ``frame``'s origin over a joint trajectory, sampled so
+        the polyline follows the motion within ``step / 2``; see
+        :func:`cadpipe.collision.trajectory.trajectory_points`."""
+        from cadpipe.collision.trajectory import path_from_trajectory
+
+        return path_from_trajectory(robot, configurations, frame, step, base)
+
     @classmethod
     def spline(cls, points, step=None, *, tolerance=None, closed=False):
         """Fit a cubic spline through ``points`` and discretize it.
@@ -308,7 +320,10 @@ class Path:
         du = np.diff(dense_u)
         ds = 0.5 * (speed[1:] + speed[:-1]) * du
         weight = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * ds)])
-        n_seg = max(int(np.ceil(weight[-1])), 3 if closed else 1)
+        needed = float(weight[-1]) if np.isfinite(weight[-1]) else np.inf
+        limits.check("max_samples", needed, "this fitted path",
+                     key="step" if np.isfinite(step) else "tolerance")
+        n_seg = max(int(np.ceil(needed)), 3 if closed else 1)
         target = np.linspace(0.0, weight[-1], n_seg + 1)
         samples = curve(np.interp(target, weight, dense_u))
         if closed:
@@ -420,5 +435,5 @@ class Polylines:
         if folds.size:
             i = folds[0]
             local = i - self.groups.first[self.groups.index[i]]
-            raise GeometryError(f"points: the path folds back on itself at point {local} "
-                                f"({self.xyz[:, i].tolist()}); remove the reversal")
+            raise GeometryError(f"the path folds back on itself at point {local} "
+                                f"({self.xyz[:, i].tolist()}); remove the reversal", key="points")

@@ -18,6 +18,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.solids.booleans import as_solid, combine, is_void, reserve_ids, snap
 from cadpipe.errors import CadpipeError, GeometryError, InputError
@@ -76,7 +77,7 @@ class Assembly:
     def __init__(self, units="m", name="assembly"):
         meters_per_unit(units)
         if not isinstance(name, str) or not name:
-            raise InputError(f"name: expected a non-empty string, got {name!r}")
+            raise InputError(f"expected a non-empty string, got {name!r}", key="name")
         self.units = units
         self.name = name
         self._parts = {}         # name -> Part, in the order given
@@ -111,17 +112,17 @@ class Assembly:
 
     def _put(self, name, obj, op, transform, color):
         if not isinstance(name, str) or not name:
-            raise InputError(f"name: expected a non-empty string, got {name!r}")
+            raise InputError(f"expected a non-empty string, got {name!r}", key="name")
         if name in self._parts:
-            raise InputError(f"name: a part named {name!r} is already in the assembly; "
-                             "part names must be unique")
+            raise InputError(f"a part named {name!r} is already in the assembly; "
+                             "part names must be unique", key="name")
         if not (isinstance(obj, Mesh) or callable(getattr(obj, "mesh", None))
                 or callable(getattr(obj, "solids", None))):
-            raise InputError(f"{name}: expected a Mesh, Pipe, HollowPipe or Junction, "
-                             f"got {type(obj).__name__}")
+            raise InputError("expected a Mesh, Pipe, HollowPipe or Junction, "
+                             f"got {type(obj).__name__}", part=name)
         matrix = None
         if transform is not None:
-            matrix = as_matrix(transform, f"{name}: transform")
+            matrix = as_matrix(transform, "transform", part=name)
             if np.array_equal(matrix, np.eye(4)):
                 matrix = None
         rgb = None if color is None else parse_color(color)
@@ -135,11 +136,14 @@ class Assembly:
         if self._solids is not None:
             return
         placed_parts, names = [], {}
+        limits.check("max_triangles", sum(limits.estimated_triangles(p.obj)
+                                          for p in self._parts.values()),
+                     f"assembly {self.name!r}")
         for part in self._parts.values():
             try:
                 shapes = part.shapes()
             except CadpipeError as exc:       # e.g. a pipe that intersects itself
-                raise type(exc)(f"{part.name}: {exc}") from None
+                raise exc.at(part=part.name) from exc.__cause__
             ids = iter(reserve_ids(sum(map(len, shapes))))
             placed = []
             for kind, meshes in zip(("solid", "bore"), shapes):
