@@ -196,7 +196,7 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
     """One table of ``jobs``: the :class:`Job` values it expands to."""
     if (spec is None) == (cell is None):
         raise InputError("give spec (a spec to build) or cell (a robot cell with a "
-                         "trajectory to check), not both", key="cell" if spec else "spec")
+                         "trajectory to check): exactly one", key="cell" if spec else "spec")
     kind = "build" if spec is not None else "trajectory"
     source = ctx.file_path(spec if spec is not None else cell, "spec" if spec else "cell")
     if kind == "build":
@@ -247,7 +247,7 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
 def _trajectory_files(ctx, trajectory, trajectories):
     if (trajectory is None) == (trajectories is None):
         raise InputError("give trajectory (one file) or trajectories (a glob pattern such as "
-                         "\"programs/*.csv\"), not both", key="trajectory")
+                         "\"programs/*.csv\"): exactly one", key="trajectory")
     if trajectory is not None:
         return [ctx.file_path(trajectory, "trajectory")]
     found = sorted(FilePath(p) for p in glob.glob(str(ctx.folder / trajectories),
