@@ -59,7 +59,7 @@ class Limits:
     max_unpacked_bytes: int = 4 << 30
 
 
-_CURRENT = contextvars.ContextVar("cadpipe_limits", default=Limits())
+_CURRENT = contextvars.ContextVar("cadpipe_limits", default=Limits())  # noqa: B039 (frozen)
 
 #: what each budget counts, as the messages say it
 _UNITS = {"max_triangles": "triangles", "max_samples": "path samples", "max_parts": "parts",

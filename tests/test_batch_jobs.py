@@ -177,7 +177,7 @@ def test_built_parts_are_the_parameters_solids(parallel):
         assert mesh.is_watertight
         # a 3-segment tube with round caps: volume grows as the radius squared
         assert mesh.volume == pytest.approx(record["solid"]["volume"], rel=1e-5)
-    small, large = by_name["duct-r3-n8"]["solid"]["volume"], by_name["duct-r6-n8"]["solid"]["volume"]
+    small, large = (by_name[n]["solid"]["volume"] for n in ("duct-r3-n8", "duct-r6-n8"))
     assert 3.0 < large / small < 4.5
     assert by_name["duct-2"]["params"] == {"radius": 5, "sides": 12}
 

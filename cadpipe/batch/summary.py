@@ -8,7 +8,7 @@ content hash, status "ok" and every listed file at its recorded size is complete
 
 import html
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path as FilePath
 
 from cadpipe.batch.work import RECORD, write_json
@@ -59,7 +59,7 @@ def write(out, records, *, engine, interrupted, started):
 
 
 def now():
-    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 def _moment(m):

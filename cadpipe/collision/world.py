@@ -620,7 +620,8 @@ class Checker:
         """Clearance between ``a`` and ``b`` with the closest points (a
         :class:`Clearance`); 0 when they touch or one contains the other."""
         i, j = self.scene._find(a), self.scene._find(b)
-        dist, pa, pb, stage = narrow.distance(self.scene._bodies[i], self.scene._poses[i], self.scene._bodies[j],
+        scene = self.scene
+        dist, pa, pb, stage = narrow.distance(scene._bodies[i], scene._poses[i], scene._bodies[j],
                                               self.scene._poses[j])
         return Clearance(float(dist), pa, pb, dist <= 0, stage)
 

@@ -247,11 +247,12 @@ class Pipe:
     @property
     def attributes(self):
         """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
-        return _deprecated.Attributes({"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
-                "radius_max": float(self.radii.max()), "path_length": self.path.length,
-                "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
-                "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
-                                      "Pipe.attributes")
+        return _deprecated.Attributes({
+            "kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+            "radius_max": float(self.radii.max()), "path_length": self.path.length,
+            "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
+            "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
+            "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
     def self_intersections(self):

@@ -13,10 +13,16 @@ the part it came from (manifold3d's original ids), so exports can colour and nam
 surfaces per part.
 """
 
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from cadpipe import limits
 from cadpipe._validate import as_choice
@@ -74,7 +80,7 @@ class Assembly:
         The assembly's name (USD root prim, default part name of the solid).
     """
 
-    def __init__(self, units="m", name="assembly"):
+    def __init__(self, units: str = "m", name: str = "assembly"):
         meters_per_unit(units)
         if not isinstance(name, str) or not name:
             raise InputError(f"expected a non-empty string, got {name!r}", key="name")
@@ -89,25 +95,75 @@ class Assembly:
         return f"<cadpipe.Assembly {self.name!r}, {len(self._parts)} parts, units {self.units}>"
 
     @property
-    def parts(self):
+    def parts(self) -> tuple[Part, ...]:
         """The parts in the order they were given."""
         return tuple(self._parts.values())
 
     # -- building -------------------------------------------------------------
-    def add(self, name, obj, transform=None, color=None):
-        """Add a solid: a Pipe, HollowPipe, Junction, Mesh (e.g. a primitive or a loaded file).
+    def add(self, name: str, obj: Any, transform: ArrayLike | None = None,
+            color: str | ArrayLike | None = None) -> Assembly:
+        """Add a solid to the union.
 
-        ``transform`` is a 4x4 matrix placing it (see :func:`cadpipe.solids.transform.placement`);
-        ``color`` is ``"#rrggbb"`` or three numbers in [0, 1].
+        Parameters
+        ----------
+        name : str
+            The part's name, unique in the assembly; output faces keep it.
+        obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
+            A closed solid (a primitive, a loaded file) or a part that makes one.
+        transform : (4, 4) array_like, optional
+            Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
+        color : str or (3,) float, optional
+            ``"#rrggbb"`` or three numbers in [0, 1].
+
+        Returns
+        -------
+        assembly : Assembly
+            ``self``, so calls chain.
         """
         return self._put(name, obj, "add", transform, color)
 
-    def subtract(self, name, obj, transform=None, color=None):
-        """Remove ``obj`` from the added solids; its cut faces keep ``name`` and ``color``."""
+    def subtract(self, name: str, obj: Any, transform: ArrayLike | None = None,
+                 color: str | ArrayLike | None = None) -> Assembly:
+        """Remove ``obj`` from the added solids; its cut faces keep ``name`` and ``color``.
+
+        Parameters
+        ----------
+        name : str
+            The part's name, unique in the assembly; output faces keep it.
+        obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
+            A closed solid (a primitive, a loaded file) or a part that makes one.
+        transform : (4, 4) array_like, optional
+            Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
+        color : str or (3,) float, optional
+            ``"#rrggbb"`` or three numbers in [0, 1].
+
+        Returns
+        -------
+        assembly : Assembly
+            ``self``, so calls chain.
+        """
         return self._put(name, obj, "subtract", transform, color)
 
-    def intersect(self, name, obj, transform=None, color=None):
-        """Keep only what lies inside ``obj``."""
+    def intersect(self, name: str, obj: Any, transform: ArrayLike | None = None,
+                  color: str | ArrayLike | None = None) -> Assembly:
+        """Keep only what lies inside ``obj``.
+
+        Parameters
+        ----------
+        name : str
+            The part's name, unique in the assembly; output faces keep it.
+        obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
+            A closed solid (a primitive, a loaded file) or a part that makes one.
+        transform : (4, 4) array_like, optional
+            Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
+        color : str or (3,) float, optional
+            ``"#rrggbb"`` or three numbers in [0, 1].
+
+        Returns
+        -------
+        assembly : Assembly
+            ``self``, so calls chain.
+        """
         return self._put(name, obj, "intersect", transform, color)
 
     def _put(self, name, obj, op, transform, color):
@@ -179,13 +235,25 @@ class Assembly:
                 (cuts if part.op == "subtract" else clips).append(whole)
         return adds, cuts, clips
 
-    def union(self, progress=None):
+    def union(self, progress: Callable[[str], object] | None = None) -> Mesh:
         """Combine every part into one watertight :class:`Mesh` (computed once, then cached).
 
-        Each face's part is in ``face_part``/``part_names``. ``progress``, if given,
-        is called with a short label after each part is prepared and after the
-        boolean. Raises :class:`MeshError` naming a part that is not a closed solid,
-        and :class:`GeometryError` when nothing is left.
+        Parameters
+        ----------
+        progress : callable, optional
+            Called with a short label after each part is prepared and after the boolean.
+
+        Returns
+        -------
+        mesh : Mesh
+            The solid; each face's part is in ``face_part``/``part_names``.
+
+        Raises
+        ------
+        MeshError
+            Naming a part that is not a closed solid.
+        GeometryError
+            When nothing is left.
         """
         if self._union is None:
             if not any(p.op == "add" for p in self._parts.values()):
@@ -203,8 +271,13 @@ class Assembly:
                 progress("boolean")
         return self._union
 
-    def mesh(self):
-        """The combined solid (the same as :meth:`union`), so an Assembly exports as a mesh."""
+    def mesh(self) -> Mesh:
+        """The combined solid (the same as :meth:`union`), so an Assembly exports as a mesh.
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         return self.union()
 
     # -- output ---------------------------------------------------------------
@@ -221,7 +294,7 @@ class Assembly:
             solid = solid.transform(np.linalg.inv(part.transform)[:3])
         return Mesh.from_manifold(solid, part_of_id=self._names, attributes=part.attributes)
 
-    def to_scene(self, mode="parts"):
+    def to_scene(self, mode: str = "parts") -> Scene:
         """A :class:`~cadpipe.io.scene.Scene` for exporters.
 
         ``mode="parts"``: one scene part per added part, in its own coordinates with
@@ -229,6 +302,14 @@ class Assembly:
         subtractions and intersections (but not merged with other parts).
         ``mode="solid"``: one part, the unioned solid, with ``colors`` mapping part
         names to colours for its labelled faces.
+
+        Parameters
+        ----------
+        mode : {"parts", "solid"}
+
+        Returns
+        -------
+        scene : Scene
         """
         mode = as_choice(mode, "mode", EXPORT_MODES)
         entries = self._parts.values()
@@ -243,12 +324,24 @@ class Assembly:
                           for p, mesh in meshes if len(mesh.faces))   # skip parts cut away
         return Scene(name=self.name, parts=parts, units=self.units, colors=colors)
 
-    def export(self, path, mode=None, **options):
+    def export(self, path: str | os.PathLike, mode: str | None = None,
+               **options: Any) -> Any:
         """Write the assembly to ``path``; the format follows the suffix.
 
-        ``mode`` is "solid" (the unioned solid) or "parts" (each part on its own);
-        by default "solid" for printing formats (STL, 3MF, OBJ, PLY, OFF) and
-        "parts" for scene formats (USD, GLB, ...). Returns the path written.
+        Parameters
+        ----------
+        path : str or path-like
+        mode : {"solid", "parts"}, optional
+            The unioned solid, or each part on its own; by default "solid" for
+            printing formats (STL, 3MF, OBJ, PLY, OFF) and "parts" for scene formats
+            (USD, GLB, ...).
+        **options
+            Format options (see :mod:`cadpipe.io.files`).
+
+        Returns
+        -------
+        path : pathlib.Path
+            The file written.
         """
         from cadpipe.io.files import export, suffix_of
 
