@@ -186,8 +186,8 @@ class Robot:
 
         Every joint's local transform is built at once (Rodrigues' formula,
         ``origin @ (I + sin K + (1 - cos) K^2)``, with the products by the origin
-        precomputed); then one stacked matrix product per joint walks down the
-        tree, for all configurations together.
+        precomputed), then multiplied down the tree, in one compiled call for all
+        configurations (:func:`cadpipe.collision.kinematics.chain_poses`).
         """
         return self.all_frame_poses(configurations, base)[:, self._kinematics["geometry"]]
 
@@ -200,15 +200,13 @@ class Robot:
     def _frame_pose_array(self, q, base):
         """``(C, F, 4, 4)`` poses of every frame (:attr:`frames` order) at ``(C, J)``
         values of every joint."""
+        from cadpipe.collision.kinematics import chain_poses
+
         k = self._kinematics
-        angle, shift = (q * k["revolute"])[..., None, None], (q * k["prismatic"])[..., None, None]
-        local = (k["origin"] + np.sin(angle) * k["turn"] + (1.0 - np.cos(angle)) * k["turn2"]
-                 + shift * k["slide"])
-        poses = np.empty((len(q), len(k["links"]), 4, 4))
-        poses[:, 0] = np.eye(4) if base is None else base
-        for step, (parent, child) in enumerate(k["edges"]):
-            np.matmul(poses[:, parent], local[:, step], out=poses[:, child])
-        return poses
+        return chain_poses(q, k["origin"], k["turn"], k["turn2"], k["slide"], k["revolute"],
+                           k["prismatic"], k["parent"], k["child"],
+                           _EYE if base is None else np.asarray(base, np.float64),
+                           k["frame_index"])
 
     def frame_poses(self, configurations, frame, base=None):
         """World pose of ``frame`` (any link of the URDF, with or without geometry,
@@ -324,13 +322,19 @@ def _kinematics(joints, base, geometry):
             "turn2": origin @ cross @ cross, "slide": origin @ slide,
             "revolute": np.array([j.kind in ("revolute", "continuous") for j in joints], float),
             "prismatic": np.array([j.kind == "prismatic" for j in joints], float),
-            "edges": [(index[j.parent], index[j.child]) for j in joints],
             "actuated": np.array(actuated, np.int64),
             "lower": np.array([joints[k].lower for k in actuated]),
             "upper": np.array([joints[k].upper for k in actuated]),
             "mimics": [(k, position[j.mimic[0]], j.mimic[1], j.mimic[2])
                        for k, j in enumerate(joints) if j.mimic is not None],
-            "geometry": [index[link] for link in geometry]}
+            "geometry": [index[link] for link in geometry],
+            # the same as arrays, for the compiled walk (cadpipe.collision.kinematics)
+            "parent": np.array([index[j.parent] for j in joints], np.int64),
+            "child": np.array([index[j.child] for j in joints], np.int64),
+            "frame_index": np.arange(len(links), dtype=np.int64)}
+
+
+_EYE = np.eye(4)
 
 
 def _joint(j):

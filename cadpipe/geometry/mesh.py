@@ -21,6 +21,7 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe._vec import cross
 from cadpipe.errors import InputError, MeshError
+from cadpipe.solids.transform import as_matrix
 
 
 def winding_numbers(triangles: np.ndarray, points: np.ndarray,
@@ -460,8 +461,6 @@ class Mesh:
         -------
         mesh : Mesh
         """
-        from cadpipe.solids.transform import as_matrix
-
         matrix = as_matrix(matrix)
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]

@@ -23,6 +23,7 @@ from cadpipe._validate import as_points, as_positive
 from cadpipe._vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.ragged import Groups, blocks
+from cadpipe.solids.transform import as_matrix
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
@@ -178,10 +179,8 @@ class Path:
 
         Parameters
         ----------
-        bend_radius : float
-            Arc radius, in path units, > 0.
-        max_angle : float
-            Largest angle in radians one arc segment turns.
+        bend_radius, max_angle : float
+            The fillet's, as for :meth:`filleted`.
 
         Returns
         -------
@@ -296,14 +295,12 @@ class Path:
         Parameters
         ----------
         matrix : (4, 4) array_like
-            Affine placement (see :func:`cadpipe.solids.transform.as_matrix`).
+            Rotation, scale and translation, as :meth:`Mesh.transformed` takes.
 
         Returns
         -------
         path : Path
         """
-        from cadpipe.solids.transform import as_matrix
-
         m = as_matrix(matrix)
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 

@@ -24,6 +24,7 @@ caller names another): absolute names, ``..`` and links that lead out are refuse
 
 import inspect
 import json
+import os
 import re
 import tomllib
 import typing
@@ -36,6 +37,9 @@ from cadpipe import limits
 from cadpipe._validate import as_choice, as_input_file
 from cadpipe.errors import CadpipeError, InputError, LimitError, SpecError, shown
 from cadpipe.solids.transform import as_matrix, placement
+
+if typing.TYPE_CHECKING:
+    from cadpipe.solids.assembly import Assembly
 
 #: annotation for a number in a part kind's signature (TOML and JSON keep ints apart)
 Number = int | float
@@ -513,6 +517,19 @@ def read(spec_path, *, data=None, output_folder=None, **budgets):
         raise exc.at(file=file) from exc.__cause__
 
 
-def load(spec_path, **options):
-    """The :class:`~cadpipe.Assembly` a spec file describes (options as :func:`read`)."""
+def load(spec_path: str | os.PathLike, **options: typing.Any) -> "Assembly":
+    """The :class:`~cadpipe.Assembly` a spec file describes.
+
+    Parameters
+    ----------
+    spec_path : str or path-like
+        The ``.toml`` or ``.json`` file (docs/spec.md).
+    **options
+        As for :func:`read`: ``output_folder``, ``max_triangles``, ``max_samples``,
+        ``max_parts``.
+
+    Returns
+    -------
+    assembly : Assembly
+    """
     return read(spec_path, **options).assembly

@@ -34,6 +34,25 @@ from cadpipe.solids.transform import as_matrix
 
 OPERATIONS = ("add", "subtract", "intersect")
 
+#: the numpy sections of :meth:`Assembly.add`, ``subtract`` and ``intersect``
+_PART_ARGUMENTS = """
+    Parameters
+    ----------
+    name : str
+        The part's name, unique in the assembly; output faces keep it.
+    obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
+        A closed solid (a primitive, a loaded file) or a part that makes one.
+    transform : (4, 4) array_like, optional
+        Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
+    color : str or (3,) float, optional
+        ``"#rrggbb"`` or three numbers in [0, 1].
+
+    Returns
+    -------
+    assembly : Assembly
+        ``self``, so calls chain.
+"""
+
 #: formats whose default export is the one unioned solid (printing); others get the parts
 SOLID_FORMATS = frozenset({"stl", "3mf", "obj", "ply", "off"})
 EXPORT_MODES = ("solid", "parts")
@@ -102,69 +121,22 @@ class Assembly:
     # -- building -------------------------------------------------------------
     def add(self, name: str, obj: Any, transform: ArrayLike | None = None,
             color: str | ArrayLike | None = None) -> Assembly:
-        """Add a solid to the union.
-
-        Parameters
-        ----------
-        name : str
-            The part's name, unique in the assembly; output faces keep it.
-        obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
-            A closed solid (a primitive, a loaded file) or a part that makes one.
-        transform : (4, 4) array_like, optional
-            Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
-        color : str or (3,) float, optional
-            ``"#rrggbb"`` or three numbers in [0, 1].
-
-        Returns
-        -------
-        assembly : Assembly
-            ``self``, so calls chain.
-        """
+        """Add a solid to the union."""
         return self._put(name, obj, "add", transform, color)
 
     def subtract(self, name: str, obj: Any, transform: ArrayLike | None = None,
                  color: str | ArrayLike | None = None) -> Assembly:
-        """Remove ``obj`` from the added solids; its cut faces keep ``name`` and ``color``.
-
-        Parameters
-        ----------
-        name : str
-            The part's name, unique in the assembly; output faces keep it.
-        obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
-            A closed solid (a primitive, a loaded file) or a part that makes one.
-        transform : (4, 4) array_like, optional
-            Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
-        color : str or (3,) float, optional
-            ``"#rrggbb"`` or three numbers in [0, 1].
-
-        Returns
-        -------
-        assembly : Assembly
-            ``self``, so calls chain.
-        """
+        """Remove ``obj`` from the added solids; its cut faces keep ``name`` and ``color``."""
         return self._put(name, obj, "subtract", transform, color)
 
     def intersect(self, name: str, obj: Any, transform: ArrayLike | None = None,
                   color: str | ArrayLike | None = None) -> Assembly:
-        """Keep only what lies inside ``obj``.
-
-        Parameters
-        ----------
-        name : str
-            The part's name, unique in the assembly; output faces keep it.
-        obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
-            A closed solid (a primitive, a loaded file) or a part that makes one.
-        transform : (4, 4) array_like, optional
-            Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
-        color : str or (3,) float, optional
-            ``"#rrggbb"`` or three numbers in [0, 1].
-
-        Returns
-        -------
-        assembly : Assembly
-            ``self``, so calls chain.
-        """
+        """Keep only what lies inside ``obj``."""
         return self._put(name, obj, "intersect", transform, color)
+
+    for _method in (add, subtract, intersect):       # one argument list for the three
+        _method.__doc__ += "\n" + _PART_ARGUMENTS
+    del _method
 
     def _put(self, name, obj, op, transform, color):
         if not isinstance(name, str) or not name:
