@@ -331,6 +331,16 @@ def test_ctrl_c_leaves_the_summary_of_what_finished(cell, cluster, tmp_path):
     assert resumed.counts["ok"] == 6 and resumed.counts["reused"] >= 1
 
 
+def test_the_callers_limits_reach_the_workers(cell, cluster, tmp_path):
+    from cadpipe import limits
+
+    jobs = [{"spec": str(cell / "duct.toml"), "params": {"radius": 3, "sides": 8},
+             "outputs": ["d.stl"]}]
+    with limits.using(max_triangles=50):
+        summary = run(jobs, tmp_path, scheduler=cluster[0].scheduler_address)
+    assert summary.jobs[0]["status"] == "failed" and "max_triangles" in summary.jobs[0]["error"]
+
+
 def test_cli_runs_a_batch_and_reports_failed_jobs(cell, cluster, tmp_path, capsys):
     code = main(["batch", str(cell / "jobs.toml"), "-o", str(tmp_path),
                  "--scheduler", cluster[0].scheduler_address])

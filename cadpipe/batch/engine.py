@@ -13,9 +13,10 @@ import logging
 import os
 import uuid
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path as FilePath
 
+from cadpipe import limits
 from cadpipe.batch import summary as report
 from cadpipe.batch.jobs import Job, read_jobs
 from cadpipe.batch.work import execute, row
@@ -98,8 +99,11 @@ def _distributed(client, jobs, out, finish, tally):
 
     slots = max(1, sum(client.nthreads().values()))
     token = uuid.uuid4().hex[:8]
-    futures = {client.submit(execute, job, str(out), key=f"cadpipe-{token}-{job.name}"): job
-               for job in jobs}
+    now, default = limits.current(), limits.Limits()
+    budgets = {f.name: getattr(now, f.name) for f in fields(now)
+               if getattr(now, f.name) != getattr(default, f.name)}
+    futures = {client.submit(execute, job, str(out), budgets, key=f"cadpipe-{token}-{job.name}"):
+               job for job in jobs}
     left = set(futures)
     tally.running = min(len(left), slots)
     try:

@@ -19,6 +19,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe.errors import CadpipeError, InputError, LimitError
 from cadpipe.io.files import atomic_path, ensure_folder
 
@@ -45,8 +46,10 @@ def write_json(path, value):
     return FilePath(path)
 
 
-def execute(job, out):
-    """Run ``job`` (a :class:`~cadpipe.batch.jobs.Job`), writing into ``out/<job.name>/``.
+def execute(job, out, budgets=None):
+    """Run ``job`` (a :class:`~cadpipe.batch.jobs.Job`), writing into ``out/<job.name>/``,
+    with ``budgets`` (the caller's changed :mod:`cadpipe.limits` as a dict, which a
+    context variable does not carry to another process) in force.
 
     Returns
     -------
@@ -62,7 +65,8 @@ def execute(job, out):
     record = row(job, "ok")
     try:
         ensure_folder(folder)
-        record.update(build(job, folder) if job.kind == "build" else check(job, folder))
+        with limits.using(**(budgets or {})):
+            record.update(build(job, folder) if job.kind == "build" else check(job, folder))
     except Exception as exc:        # noqa: BLE001  (a failing job is recorded, the batch goes on)
         record.update(status="failed", verdict="error", error=one_line(exc), files={})
     record["run"] = {"seconds": round(time.perf_counter() - start, 4),
@@ -285,7 +289,9 @@ def check(job, folder):
     q = configurations(job, posed)
     posed.robot.joint_array(q)        # within the joint limits (so is every move between)
     dense, at = densify(q, job.step)
-    reports = world.check_path(posed.group, dense, **options)
+    # every pair at every configuration: [check]'s first_hit and only do not apply here
+    reports = world.check_path(posed.group, dense, stop_after_self=options["stop_after_self"],
+                               certify=options["certify"])
     names = world.names
     first_of, second_of = np.triu_indices(len(names), k=1)
     hits = reports.pair_colliding
