@@ -206,7 +206,7 @@ class Pipe:
         Parameters
         ----------
         start, end : float
-            Arc length to remove at each end, in path units, >= 0.
+            As for :meth:`Path.trimmed`.
 
         Returns
         -------
