@@ -85,7 +85,7 @@ COMMANDS = {
         "exit": {0: "every job ran (collisions are verdicts, not failures)",
                  1: "bad input (the JOBS file, a spec or trajectory it names): nothing ran",
                  3: "the batch ran but some jobs failed; their errors are in the summary"},
-        "examples": ["cadpipe batch assets/examples/batch.toml -o out/batch --workers 0"],
+        "examples": ["cadpipe batch assets/examples/batch/jobs.toml -o out/batch --workers 0"],
     },
     "view": {
         "about": "Renders `preview.png` (offscreen, no display or GPU needed) and writes "
