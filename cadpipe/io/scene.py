@@ -38,7 +38,8 @@ def parse_color(color):
     try:
         rgb = tuple(float(c) for c in color)
     except (TypeError, ValueError):
-        raise InputError(f"expected '#rrggbb' or 3 numbers, got {color!r}", key="color") from None
+        raise InputError(f"expected '#rrggbb' or 3 numbers, got {color!r}",
+                         key="color") from None
     if len(rgb) != 3 or not all(0.0 <= c <= 1.0 for c in rgb):
         raise InputError(f"expected 3 numbers in [0, 1], got {color!r}", key="color")
     return rgb
