@@ -10,7 +10,7 @@ renamed name warns for one release). The subpackages' other modules are the
 layout of the implementation (see docs/architecture.md) and may change.
 """
 
-from cadpipe import _moved, limits  # noqa: F401  (cadpipe.limits.using(max_triangles=...))
+from cadpipe import _moved, batch, limits  # noqa: F401  (cadpipe.batch.run, cadpipe.limits)
 from cadpipe.collision import CollisionWorld
 from cadpipe.errors import (CadpipeError, ExportError, GeometryError, InputError, LimitError,
                             MeshError, SpecError)
@@ -29,6 +29,7 @@ __version__ = "0.1.0"
 __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError",
            "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "check_mesh",
            "splice"]
-__all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "LimitError", "limits", "load"]
+__all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "LimitError", "batch", "limits",
+            "load"]
 
 _moved.install()

@@ -72,6 +72,21 @@ COMMANDS = {
         "examples": ["cadpipe collide assets/examples/robot_cell.toml",
                      "cadpipe collide assets/examples/robot_cell.toml --json --svg out/certificates"],
     },
+    "batch": {
+        "about": "Reads a JOBS file ([batch.md](batch.md)): spec builds, spec templates filled "
+                 "from a grid or CSV rows of parameters, and robot trajectories to check in a "
+                 "cell and wrap in a safety pipe. Runs them on a Dask cluster of one process "
+                 "per core (or `--scheduler`'s cluster), each job writing into `OUT/<job>/`, "
+                 "and writes `summary.json` and `summary.html` (a row per job: verdict, first "
+                 "collision and its time, clearance, files, error). A failing job is recorded "
+                 "and the batch goes on; a re-run skips the jobs whose outputs are complete. "
+                 "On a terminal a bar shows jobs done / failed / running; otherwise one line "
+                 "per job goes to stderr.",
+        "exit": {0: "every job ran (collisions are verdicts, not failures)",
+                 1: "bad input (the JOBS file, a spec or trajectory it names): nothing ran",
+                 3: "the batch ran but some jobs failed; their errors are in the summary"},
+        "examples": ["cadpipe batch assets/examples/batch/jobs.toml -o out/batch --workers 0"],
+    },
     "view": {
         "about": "Renders `preview.png` (offscreen, no display or GPU needed) and writes "
                  "`preview.html`, a self-contained page that shows the mesh in 3D and opens "

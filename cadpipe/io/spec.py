@@ -492,13 +492,17 @@ def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
     return Spec(ctx.file, assembly, tuple(made), cell, part_keys, budgets)
 
 
-def read(spec_path, *, output_folder=None, **budgets):
+def read(spec_path, *, data=None, output_folder=None, **budgets):
     """Read a TOML or JSON spec into a :class:`Spec` (assembly, outputs and cell).
 
     Parameters
     ----------
     spec_path : str or path
         The ``.toml`` or ``.json`` file.
+    data : dict, optional
+        The spec's table already parsed (a template with its parameters filled in, from
+        :mod:`cadpipe.batch`); files it names still resolve relative to ``spec_path``'s
+        folder.
     output_folder : str or path, optional
         Where the spec's ``outputs`` are written (default: the spec's folder); a
         spec cannot name a file outside it.
@@ -512,10 +516,11 @@ def read(spec_path, *, output_folder=None, **budgets):
     file = FilePath(spec_path)
     unknown = set(budgets) - {"max_triangles", "max_samples", "max_parts"}
     if unknown:
-        raise InputError("unknown option; expected output_folder, max_triangles, "
+        raise InputError("unknown option; expected data, output_folder, max_triangles, "
                          "max_samples or max_parts", key=sorted(unknown)[0])
     try:
-        return SpecContext(file, output_folder, budgets).call(_spec, _parse(file))
+        return SpecContext(file, output_folder, budgets).call(
+            _spec, _parse(file) if data is None else data)
     except CadpipeError as exc:
         raise exc.at(file=file) from exc.__cause__
 
