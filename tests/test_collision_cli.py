@@ -40,9 +40,14 @@ def test_pipe_parts_stay_pipes_and_are_placed_by_their_transform():
     assert isinstance(duct.obj, Pipe)                     # the part kind returns the Pipe ...
     np.testing.assert_allclose(world.pose("cable_duct"), duct.transform)
     low, high = world.bounds("cable_duct")                # ... checked as the round tube
-    points = duct.obj.path.points + duct.transform[:3, 3]
-    np.testing.assert_allclose(low, points.min(axis=0) - 0.03, atol=1e-9)
-    np.testing.assert_allclose(high, points.max(axis=0) + 0.03, atol=1e-9)
+    starts, ends, r0, r1 = duct.obj.collision_units()     # that holds its mesh
+    shift = duct.transform[:3, 3]
+    lo = np.minimum(starts - r0[:, None], ends - r1[:, None]).min(axis=0) + shift
+    hi = np.maximum(starts + r0[:, None], ends + r1[:, None]).max(axis=0) + shift
+    np.testing.assert_allclose(low, lo, atol=1e-9)
+    np.testing.assert_allclose(high, hi, atol=1e-9)
+    mesh = duct.obj.mesh().vertices + shift
+    assert (low <= mesh.min(axis=0) + 1e-12).all() and (high >= mesh.max(axis=0) - 1e-12).all()
 
 
 def test_json_and_svg_output(tmp_path, capsys):

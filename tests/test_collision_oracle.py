@@ -61,15 +61,21 @@ def fcl_distance(geom_a, pose_a, geom_b, pose_b):
 
 
 def capsules(pipe, pose):
-    """FCL capsules (with world poses) of a constant-radius pipe's units."""
-    p = pipe.path.points @ pose[:3, :3].T + pose[:3, 3]
+    """FCL capsules (with world poses) of a constant-radius pipe's collision units
+    (:meth:`Pipe.collision_units`: segments and miter-tip capsules)."""
+    starts, ends, radii, _ = pipe.collision_units()
+    starts, ends = (q @ pose[:3, :3].T + pose[:3, 3] for q in (starts, ends))
     out = []
-    for a, b in zip(p[:-1], p[1:]):
+    for a, b, r in zip(starts, ends, radii):
         axis = b - a
-        rot = Rotation.align_vectors([axis], [[0, 0, 1]])[0].as_matrix()
+        length = float(np.linalg.norm(axis))
         m = np.eye(4)
-        m[:3, :3], m[:3, 3] = rot, 0.5 * (a + b)
-        out.append((fcl.Capsule(float(pipe.radii[0]), float(np.linalg.norm(axis))), m))
+        m[:3, 3] = 0.5 * (a + b)
+        if length > 0:
+            m[:3, :3] = Rotation.align_vectors([axis], [[0, 0, 1]])[0].as_matrix()
+            out.append((fcl.Capsule(float(r), length), m))
+        else:
+            out.append((fcl.Sphere(float(r)), m))
     return out
 
 

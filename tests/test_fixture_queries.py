@@ -79,8 +79,12 @@ def test_locate_agrees_with_world_inside_and_moves_with_the_pipe():
     rng = np.random.default_rng(9)
     points = rng.uniform([-1.0, -1.5, 0.8], [2.0, 1.5, 3.0], (800, 3))
     found = locate(pipe, points, transform=pose)
-    np.testing.assert_allclose(found.signed_distance,
-                               world.inside("pipe", points).signed_distance, atol=1e-12)
+    # the world's pipe is the chain that holds the mesh (miter tips too), a superset of
+    # the centreline's round cones that locate measures against
+    held = world.inside("pipe", points).signed_distance
+    assert (held <= found.signed_distance + 1e-12).all()
+    tips = float((pipe.miter_stretch.max() - 1) * pipe.ring_radii.max())
+    assert (found.signed_distance - held <= tips + 1e-12).all()
     with pytest.raises(InputError, match="expected a cadpipe Pipe"):
         locate(pipe.mesh(), points)
     with pytest.raises(InputError, match="not finite"):

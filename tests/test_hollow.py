@@ -32,10 +32,13 @@ def shells(mesh):
 @given(st.floats(0.05, 1.0), st.floats(0.1, 0.9), st.integers(3, 48), st.floats(0.2, 3.0))
 def test_open_straight_hollow_pipe_volume_is_the_wall_ring_area_times_length(
         radius, wall_fraction, sides, length):
-    wall = radius * wall_fraction
+    wall = radius * np.cos(np.pi / sides) * wall_fraction       # the inradius: faces to axis
     hollow = HollowPipe(Pipe([[0, 0, 0], [length, 0, 0]], radius, sides), wall)
     mesh = hollow.mesh()
-    expected = (polygon_area(radius, sides) - polygon_area(radius - wall, sides)) * length
+    # the wall is measured across the flat faces: the bore's circumradius is smaller by
+    # wall / cos(pi / sides)
+    bore = radius - wall / np.cos(np.pi / sides)
+    expected = (polygon_area(radius, sides) - polygon_area(bore, sides)) * length
     assert mesh.is_watertight and mesh.volume == pytest.approx(expected, rel=1e-6)
     assert mesh.n_bodies == 1 and mesh.genus == 1                 # a tube: open at both ends
 

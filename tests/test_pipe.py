@@ -105,12 +105,43 @@ def test_miter_corner_keeps_full_radius():
     assert mesh.volume == pytest.approx(ngon_area(r, 16) * 2.0, rel=1e-9)
 
 
-def test_round_corners_follow_a_fillet():
-    pipe = Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0]], 0.1, sides=12, corners="round",
-                bend_radius=0.3)
+def test_bend_radius_is_deprecated_for_a_filleted_path():
+    with pytest.warns(DeprecationWarning, match="filleted"):
+        pipe = Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0]], 0.1, sides=12, corners="round",
+                    bend_radius=0.3)
     assert_solid(pipe.mesh())
     assert len(pipe.path) > 3
     assert pipe.path.turning_angles.max() < np.radians(6)
+
+
+@pytest.mark.parametrize("degrees", [60, 90, 110, 120])
+def test_round_corners_are_ball_joints_around_the_corner_point(degrees):
+    """0.1 rounded the path: the corner point ended 0.17 r inside at 90 degrees and
+    2.3 r outside at 150."""
+    r, sides = 0.1, 16
+    a = np.radians(degrees)
+    points = [[-1, 0, 0], [0, 0, 0], [np.cos(a), np.sin(a), 0]]
+    pipe = Pipe(points, r, sides, corners="round")
+    mesh = pipe.mesh()
+    assert_solid(mesh)
+    assert np.allclose(pipe.path.points, points)                  # the path is kept
+    # the corner's ball is inside up to the polygons' chordal sag (16 sides, 4 steps
+    # per quarter turn: 0.96 r); the rounded path held only 0.17 r at 90 degrees
+    rng = np.random.default_rng(degrees)
+    v = rng.normal(size=(2000, 3))
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    assert mesh.contains(0.95 * r * v).all()
+    # and no miter tip: every vertex lies within r of the path, as a miter's does not
+    def reach(m):
+        return np.minimum(_distance_to_segment(m.vertices, points[0], points[1]),
+                          _distance_to_segment(m.vertices, points[1], points[2])).max()
+    assert reach(mesh) <= r * (1 + 1e-9) < reach(Pipe(points, r, sides).mesh())
+
+
+def _distance_to_segment(p, a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    t = np.clip((p - a) @ (b - a) / ((b - a) @ (b - a)), 0, 1)
+    return np.linalg.norm(p - a - t[:, None] * (b - a), axis=1)
 
 
 def test_sharp_corner_beyond_miter_limit_is_an_error():
@@ -213,3 +244,12 @@ def test_radius_below_the_path_resolution_or_too_thin_to_check_is_refused():
     # representable, but checking it for self-intersection would take 4e7 samples
     with pytest.raises(InputError, match="samples"):
         Pipe([[0, 0, 0], [1, 0, 0]], 1e-7).mesh()
+
+
+def test_fillets_that_consume_a_segment_keep_per_point_radii():
+    """0.1: a numpy broadcast ValueError when two arcs used up the segment between them."""
+    points = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 1, 0]]
+    with pytest.warns(DeprecationWarning):
+        pipe = Pipe(points, [0.1, 0.1, 0.12, 0.1], 8, bend_radius=0.5)
+    assert pipe.radii.shape == (len(pipe.path),)
+    assert_solid(pipe.mesh())

@@ -203,7 +203,8 @@ def as_body(obj, name):
     """The :class:`Body` of a Mesh, Pipe, primitive or trimesh object.
 
     Meshes must be closed, outward solids (containment needs an inside);
-    pipes become chains of balls along their path with their ring radii.
+    pipes become chains of round cones that contain their mesh
+    (:meth:`~cadpipe.Pipe.collision_units`).
     """
     import trimesh
 
@@ -214,7 +215,7 @@ def as_body(obj, name):
     if isinstance(obj, Surface):
         return Body(mesh=obj.mesh, closed=False)
     if isinstance(obj, Pipe):
-        return Body(chain=Chain.along(obj.path.points, obj.ring_radii, closed=obj.closed))
+        return Body(chain=Chain.of_units(*obj.collision_units()))
     if isinstance(obj, Box):
         return Body(mesh=box_mesh(obj.size))
     if isinstance(obj, Sphere):

@@ -226,6 +226,26 @@ class Chain:
             edges = np.stack([i, (i + 1) % n], axis=1)
         return cls(points, np.broadcast_to(np.asarray(radii, np.float64), (n,)).copy(), edges)
 
+    @classmethod
+    def of_units(cls, starts: np.ndarray, ends: np.ndarray, start_radii: np.ndarray,
+                 end_radii: np.ndarray) -> "Chain":
+        """A chain of separate units, each given by its own two end balls.
+
+        Parameters
+        ----------
+        starts, ends : (U, 3) float
+            Ball centres, e.g. from :meth:`cadpipe.Pipe.collision_units`.
+        start_radii, end_radii : (U,) float
+
+        Returns
+        -------
+        chain : Chain
+        """
+        count = len(starts)
+        edges = np.stack([np.arange(count), count + np.arange(count)], axis=1)
+        return cls(np.concatenate([starts, ends]), np.concatenate([start_radii, end_radii]),
+                   edges)
+
     def moved(self, matrix):
         """The chain moved by a rigid 4x4 matrix."""
         return Chain(self.centers @ matrix[:3, :3].T + matrix[:3, 3], self.radii, self.edges)

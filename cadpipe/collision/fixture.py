@@ -144,13 +144,15 @@ class _Centreline:
 
 
 def _pipe_chain(pipe, transform):
-    from cadpipe.collision.bodies import as_body
+    from cadpipe.collision.capsules import Chain
     from cadpipe.geometry.pipe import Pipe
 
     if not isinstance(pipe, Pipe):
         raise InputError(f"locate(pipe, points): expected a cadpipe Pipe, got "
                          f"{type(pipe).__name__}", key="pipe")
-    chain = as_body(pipe, "pipe").chain
+    # the centreline's own units, in path order (the collision model adds miter-tip and
+    # cap units that hold the mesh; locating along the path needs the segments alone)
+    chain = Chain.along(pipe.path.points, pipe.ring_radii, closed=pipe.closed)
     if transform is not None:
         from cadpipe.collision.world import as_pose
 

@@ -203,6 +203,15 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
     return out, shift
 
 
+def _refuse_first(bad, groups, key, message):
+    """Raise :class:`InputError` at the first ``bad`` row: ``message(row, local)`` says
+    what is wrong there, ``local`` the row's index within its path."""
+    if bad.any():
+        i = int(np.argmax(bad))
+        local = i - int(groups.first[groups.index[i]])
+        raise InputError(message(i, local), key=key, index=local)
+
+
 def _require_gentle_twist(lines, rate):
     """Raise :class:`InputError` where spreading an end normal's twist (``rate``, (G,)
     radians per metre) turns neighbouring rings by more than :data:`MAX_TWIST_STEP`."""
@@ -210,15 +219,11 @@ def _require_gentle_twist(lines, rate):
     is_step = np.ones(g.size, bool)
     is_step[g.last] = g.closed
     twist = np.abs(g.spread(rate)) * lines.segment_lengths
-    bad = is_step & (twist > MAX_TWIST_STEP)
-    if bad.any():
-        i = int(np.argmax(bad))
-        local = i - int(g.first[g.index[i]])
-        raise InputError(f"meeting it twists the rings by {np.degrees(twist[i]):.1f} degrees "
-                         f"between path points {local} and {local + 1}, which would pinch the "
-                         f"tube (at most {np.degrees(MAX_TWIST_STEP):.1f}); add points to the "
-                         "path there (Path.resample) or leave end_normal out",
-                         key="end_normal", index=local)
+    _refuse_first(is_step & (twist > MAX_TWIST_STEP), g, "end_normal", lambda i, local: (
+        f"meeting it twists the rings by {np.degrees(twist[i]):.1f} degrees between path "
+        f"points {local} and {local + 1}, which would pinch the tube (at most "
+        f"{np.degrees(MAX_TWIST_STEP):.1f}); add points to the path there (Path.resample) "
+        "or leave end_normal out"))
 
 
 def _patent_normals(lines, tangents, transported, rows):
@@ -236,28 +241,20 @@ def _patent_normals(lines, tangents, transported, rows):
     raw = cross(points, t, 0)
     size = norm(raw, 0)
     undefined = rows & (size <= 1e-9 * np.maximum(norm(points, 0), 1.0))
-    if undefined.any():
-        i = int(np.argmax(undefined))
-        local = i - int(g.first[g.index[i]])
-        raise InputError(f"frame='patent' is undefined at path point {local} "
-                         f"({points[:, i].tolist()}): the path there points at or away from "
-                         "the origin, so OP x L vanishes; use frame='rmf' or move the path "
-                         "off the origin's line", key="frame", index=local)
+    _refuse_first(undefined, g, "frame", lambda i, local: (
+        f"frame='patent' is undefined at path point {local} ({points[:, i].tolist()}): the "
+        "path there points at or away from the origin, so OP x L vanishes; use "
+        "frame='rmf' or move the path off the origin's line"))
     raw = np.divide(raw, size, out=np.zeros_like(raw), where=size > 0)
     psi = np.arctan2(dot(raw, cross(t, n, 0), 0), dot(raw, n, 0))
     step = g.following(psi) - psi
     step -= np.pi * np.round(step / np.pi)                # a half turn is the rule's sign flip
     is_step = rows.copy()
     is_step[g.last] = False
-    twisted = is_step & (np.abs(step) > MAX_TWIST_STEP)
-    if twisted.any():
-        i = int(np.argmax(twisted))
-        local = i - int(g.first[g.index[i]])
-        raise InputError(f"frame='patent' turns the rings by {np.degrees(abs(step[i])):.1f} "
-                         f"degrees between path points {local} and {local + 1} (the path "
-                         "passes close to the origin's line), which would pinch the tube; "
-                         "use frame='rmf' or sample the path more finely there",
-                         key="frame", index=local)
+    _refuse_first(is_step & (np.abs(step) > MAX_TWIST_STEP), g, "frame", lambda i, local: (
+        f"frame='patent' turns the rings by {np.degrees(abs(step[i])):.1f} degrees between "
+        f"path points {local} and {local + 1} (the path passes close to the origin's line), "
+        "which would pinch the tube; use frame='rmf' or sample the path more finely there"))
     angle = g.spread(psi[g.first]) + g.exclusive_cumsum(np.where(is_step, step, 0.0))
     b = cross(t, n, 0)
     return (np.cos(angle) * n + np.sin(angle) * b)[:, rows]

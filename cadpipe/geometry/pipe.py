@@ -7,6 +7,7 @@ pipes is built from the same rings the pipes themselves use.
 """
 
 import dataclasses
+import warnings
 from dataclasses import KW_ONLY, dataclass
 from collections.abc import Mapping
 from functools import cached_property, partial
@@ -18,7 +19,7 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_int, as_positive
 from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
-from cadpipe.geometry.frames import FRAME_MODES, as_direction
+from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
@@ -43,6 +44,17 @@ def _frozen(values):
     return out
 
 
+def _filleted_radii(path, bend, radii, filleted):
+    """``radii`` carried onto ``filleted = path.filleted(bend)``: per source point, or,
+    where arcs that consume a segment made the filleted path drop repeated points
+    (0.1 raised a numpy broadcast error there), by arc-length fraction."""
+    source = path.fillet_sources(bend)
+    if len(source) == len(filleted):
+        return radii[source]
+    along = filleted.arc_length / filleted.length * path.length
+    return np.interp(along, path.arc_length, radii)
+
+
 def envelope_factor(sides):
     """Circumradius over inradius of a regular polygon: ``1 / cos(pi / sides)``."""
     return 1.0 / np.cos(np.pi / sides)
@@ -65,7 +77,7 @@ class Pipe:
     sides : int, optional
         Vertices per ring (3 to 4096). Chosen from ``tolerance`` when omitted (16 when
         neither is given); a ``sides`` given wins over ``tolerance``.
-    caps : {"flat", "round"}
+    caps : {"flat", "round"} or (start, end) pair of them
         End caps of an open path; a closed path needs none.
     envelope : bool
         False: ring vertices on the circle (the polygon lies inside the round tube).
@@ -88,7 +100,9 @@ class Pipe:
         Polyline corners as miter joints (the rings meet in the bisector plane), or
         ball joints: the outside of each corner is the sphere of the corner's radius
         about the corner point, so the corner point keeps the full radius and no miter
-        tip sticks out.
+        tip sticks out (the path itself is not rounded). Gentle corners, and every
+        corner of an ``envelope=True`` pipe, keep their miter joint, which holds the
+        corner's ball too.
     bend_radius : float, optional
         Deprecated: rounds the path itself with arcs of this radius (the pipe then
         follows :meth:`Path.fillet`'s path); pass ``path.fillet(bend_radius)[0]``.
@@ -121,7 +135,12 @@ class Pipe:
         set_ = partial(object.__setattr__, self)
         source = self.path if isinstance(self.path, Path) else Path(self.path)
         radius = as_positive(self.radius, "radius", count=len(source))
-        set_("caps", as_choice(self.caps, "caps", CAP_STYLES))
+        caps = self.caps if isinstance(self.caps, str) else tuple(self.caps)
+        if isinstance(caps, tuple) and len(caps) != 2:
+            raise InputError(f"expected 'flat', 'round' or a (start, end) pair, got {caps!r}",
+                             key="caps")
+        set_("caps", as_choice(caps, "caps", CAP_STYLES) if isinstance(caps, str) else
+             tuple(as_choice(c, "caps", CAP_STYLES) for c in caps))
         set_("frame", as_choice(self.frame, "frame", FRAME_MODES))
         set_("corners", as_choice(self.corners, "corners", CORNER_STYLES))
         set_("envelope", bool(self.envelope))
@@ -129,6 +148,10 @@ class Pipe:
         for name in ("normal", "end_normal"):
             value = getattr(self, name)
             set_(name, None if value is None else tuple(as_direction(value, name).tolist()))
+        if self.envelope and self.frame == "patent":
+            raise InputError("envelope=True needs the rotation-minimizing frame: the patent "
+                             "frame twists the rings, and a twisted tube sags between them; "
+                             "use frame='rmf'", key="frame")
         if self.end_normal is not None and source.closed:
             raise InputError("a closed path has no end: its last ring meets its first; "
                              "give only normal", key="end_normal")
@@ -156,14 +179,16 @@ class Pipe:
             raise InputError(f"{radii.min():g} is too small for this path, whose points "
                              f"closer than {source._tolerance:g} count as one; use a larger "
                              "radius", key="radius")
-        set_("_given_path", source)
-        if self.corners == "round":
-            bend = 2.0 * float(radii.max()) if self.bend_radius is None else self.bend_radius
-            set_("bend_radius", float(as_positive(bend, "bend_radius")))
-            radii = radii[source.fillet_sources(self.bend_radius)]
-            source = source.filleted(self.bend_radius)
-        else:
+        if self.bend_radius is not None:
+            warnings.warn("Pipe(bend_radius=...) rounds the path itself and is deprecated: "
+                          "pass path.filleted(bend_radius) (corners='round' is now a ball "
+                          "joint at each corner of the path as given)", DeprecationWarning,
+                          stacklevel=3)
+            bend = float(as_positive(self.bend_radius, "bend_radius"))
+            filleted = source.filleted(bend)
+            radii, source = _filleted_radii(source, bend, radii, filleted), filleted
             set_("bend_radius", None)
+            set_("corners", "miter")
         set_("path", source)
         set_("radius", _frozen(radii) if radius.ndim else float(radius))
 
@@ -182,8 +207,6 @@ class Pipe:
         """
         if self._sides_from_tolerance and "sides" not in changes:
             changes["sides"] = None
-        if self.corners == "round" and "path" not in changes:
-            changes["path"] = self._given_path
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
@@ -222,10 +245,52 @@ class Pipe:
         """Whether the path is closed (a ring of tube with no caps)."""
         return self.path.closed
 
-    @property
+    @cached_property
+    def cap_styles(self) -> tuple[str, str]:
+        """``caps`` as a (start, end) pair."""
+        return (self.caps, self.caps) if isinstance(self.caps, str) else self.caps
+
+    @cached_property
     def ring_radii(self) -> np.ndarray:
-        """(N,) distance of ring vertices from the axis (radius, or circumradius)."""
-        return self.radii * envelope_factor(self.sides) if self.envelope else self.radii
+        """(N,) distance of ring vertices from the axis (before miter stretch).
+
+        The radius itself, or with ``envelope=True`` the circumradius of the polygon
+        whose sides touch a circle ``1 / cos(a)`` larger than the radius, ``a`` the
+        steeper taper of the segments beside the ring (``sin a = |dr| / length``): the
+        round cone a tapered segment's balls sweep is that much wider than the circle
+        of the ball at its end.
+        """
+        if not self.envelope:
+            return self.radii
+        r = self.radii
+        lengths = self.path.segment_lengths
+        ahead = np.roll(r, -1)[:len(lengths)]
+        sine = np.minimum(np.abs(ahead - r[:len(lengths)]) / lengths, 1.0 - 1e-9)
+        slope = 1.0 / np.sqrt(1.0 - sine ** 2)
+        before = np.roll(slope, 1) if self.closed else np.concatenate([slope[:1], slope])
+        after = slope if self.closed else np.concatenate([slope, slope[-1:]])
+        return _frozen(r * envelope_factor(self.sides) * np.maximum(before, after)
+                       / np.cos(self._twist_bound / 2))
+
+    @cached_property
+    def _twist_bound(self) -> float:
+        """Most twist between neighbouring rings (radians): an end normal's is held to
+        :data:`~cadpipe.geometry.frames.MAX_TWIST_STEP`, a loop's holonomy spreads at
+        most ``pi / sides`` by arc length. A band twisted by ``d`` sags to
+        ``cos(d / 2)`` of its radius, which an envelope makes up for."""
+        if self.end_normal is not None:
+            return MAX_TWIST_STEP
+        if self.closed:
+            return np.pi / self.sides * float(self.path.segment_lengths.max()) / self.path.length
+        return 0.0
+
+    @cached_property
+    def cap_reach(self) -> tuple[float, float]:
+        """How far the solid reaches past the path's first and last point, along it."""
+        if self.closed:
+            return (0.0, 0.0)
+        return tuple(_cap_reach(self, style, sign)
+                     for style, sign in zip(self.cap_styles, (-1, 1)))
 
     @cached_property
     def _tubes(self):
@@ -286,7 +351,8 @@ class Pipe:
         return _deprecated.Attributes({
             "kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
             "radius_max": float(self.radii.max()), "path_length": self.path.length,
-            "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
+            "path_points": len(self.path), "closed": self.closed,
+            "caps": "/".join(dict.fromkeys(self.cap_styles)),
             "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
             "Pipe.attributes")
 
@@ -383,16 +449,80 @@ class Pipe:
         apart).
         """
         rings = self.rings()
+        arriving, leaving, pieces = rings.copy(), rings.copy(), []
+        for row in np.flatnonzero(joint_rows_of(self._tubes, 0, len(rings) - 1, self)):
+            joint = _joint(self._tubes, row, self)[1]
+            arriving[row], leaving[row] = joint[0], joint[-1]
+            pieces.append(joint.reshape(-1, 3))
         cur = np.arange(len(self.path.segments))
         nxt = (cur + 1) % len(rings)
         shift = overlap * self.path.directions[:, None, :]
-        pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
-        if not self.closed and self.caps == "round":
-            for row, sign in ((0, -1), (len(rings) - 1, 1)):
-                axes, pole = cap_axes(self._tubes, row, sign, self)
-                cap = np.matmul(ring_basis(self.sides), axes).reshape(-1, 3)
-                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
+        pieces += list(np.concatenate([leaving[cur] - shift, arriving[nxt] + shift], axis=1))
+        if not self.closed:
+            for row, sign, style in ((0, -1, self.cap_styles[0]),
+                                     (len(rings) - 1, 1, self.cap_styles[1])):
+                cap = cap_axes(self._tubes, row, sign, self, style)
+                if cap is not None:
+                    cap_rings = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
+                    pole = np.empty((0, 3)) if cap[1] is None else cap[1][None]
+                    pieces.append(np.concatenate([rings[row], cap_rings, pole]))
         return pieces
+
+    def collision_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Round cones whose union contains this pipe's mesh: the collision model.
+
+        Per segment, the cone between the balls at its two points, widened by the taper
+        over the miter setbacks; per mitered corner, a capsule from the corner point
+        towards the miter tip (the ring there is an ellipse stretched along the outer
+        bend direction, and the capsule of the ring radius along that semi-axis, minus
+        the radius, holds it); per envelope cap, a ball or capsule reaching the cap's
+        far face. Each unit's axis lies inside the mesh, so the chain exceeds the mesh
+        by at most its largest unit radius (the ring radius, or up to
+        ``1 / cos(pi / (2 (2m - 1)))`` of it at an envelope's round caps).
+
+        Returns
+        -------
+        starts, ends : (U, 3) float
+        start_radii, end_radii : (U,) float
+        """
+        path, rho = self.path, self.ring_radii
+        n = len(path)
+        i = np.arange(len(path.segments))
+        j = (i + 1) % n
+        setback = rho * np.tan(np.minimum(path.turning_angles, np.pi - 1e-9) / 2)
+        taper = np.abs(rho[j] - rho[i]) / path.segment_lengths
+        starts, ends = [path.points[i]], [path.points[j]]
+        start_r, end_r = [rho[i] + 2 * taper * setback[i]], [rho[j] + 2 * taper * setback[j]]
+        corner = np.flatnonzero((self.miter_stretch > 1 + 1e-12)
+                                & ~joint_rows_of(self._tubes, 0, n - 1, self))
+        if corner.size:
+            outward = -path.bend_directions[corner]
+            starts.append(path.points[corner])
+            ends.append(path.points[corner] + ((self.miter_stretch[corner] - 1)
+                                               * rho[corner])[:, None] * outward)
+            start_r.append(rho[corner])
+            end_r.append(rho[corner])
+        if not self.closed:
+            for row, sign, style in ((0, -1, self.cap_styles[0]), (n - 1, 1, self.cap_styles[1])):
+                cap = cap_axes(self._tubes, row, sign, self, style)
+                if cap is None or (style == "round" and not self.envelope):
+                    continue                    # within the end ball already
+                end = path.points[row]
+                if style == "flat":
+                    far = cap[0][0, 2]
+                    starts.append(end[None])
+                    ends.append(far[None])
+                    start_r.append(rho[row:row + 1])
+                    end_r.append(rho[row:row + 1])
+                else:
+                    vertices = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
+                    reach = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
+                    starts.append(end[None])
+                    ends.append(end[None])
+                    start_r.append([max(reach, rho[row])])
+                    end_r.append([max(reach, rho[row])])
+        return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
+                np.concatenate(end_r))
 
     def _repaired_mesh(self):
         """Union of the convex units through manifold3d: valid even where the tube folds."""
@@ -408,26 +538,63 @@ def tubes_of(pipes):
     """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes` batch."""
     return Tubes(polylines([p.path for p in pipes]),
                  np.concatenate([p.ring_radii for p in pipes]),
-                 [p.sides for p in pipes], [p.miter_limit for p in pipes],
+                 [p.sides for p in pipes],
+                 [p.miter_limit if p.corners == "miter" else np.inf for p in pipes],
                  patent=[p.frame == "patent" for p in pipes],
                  normals=np.array([as_direction(p.normal, "normal") for p in pipes]),
                  end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]),
                  gentle=True)
 
 
-def cap_axes(tubes, row, sign, pipe):
-    """A round cap's latitude rings past the end ring at ``row`` (outward from the
-    tube, along ``sign`` times the tangent) as ring axes and centres (see
-    :func:`~cadpipe.geometry.rings.ring_basis`), and its pole."""
-    m = pipe.cap_steps
-    lat = (np.pi / 2) * np.arange(1, m) / m
-    scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
-    centre = tubes.lines.xyz[:, row]
-    rise = tubes.ring_radii[row] * scale * sign * tubes.lines.tangents[:, row]
-    axes = np.empty((m - 1, 3, 3))
-    axes[:, :2] = (scale * np.cos(lat))[:, None, None] * tubes.axes[row, :2]
-    axes[:, 2] = centre + np.sin(lat)[:, None] * rise
-    return axes, centre + rise
+def cap_axes(tubes, row, sign, pipe, style):
+    """The cap past the end ring at ``row`` (outward along ``sign`` times the tangent):
+    its rings as axes and centres (see :func:`~cadpipe.geometry.rings.ring_basis`) and
+    its pole (None: a flat fan closes the last ring); None for a plain flat cap.
+
+    A round cap's rings lie on the sphere of the end ring's radius; with
+    ``envelope=True`` its faces are instead tangent to the sphere of the ball it must
+    hold (the end ring's inradius ``rho``): in each meridian the cap is the polygon
+    circumscribing that circle with sides tangent at ``0, D, 2D, ...`` and a vertex on
+    the axis, ``D = pi / (2m - 1)``, so ring ``j`` sits at angle ``(j - 1/2) D`` and
+    distance ``rho / cos(D/2)``. An envelope's flat cap lies ``r`` past the end.
+    """
+    centre, tangent = tubes.lines.xyz[:, row], sign * tubes.lines.tangents[:, row]
+    ring = tubes.axes[row]
+    if style == "flat":
+        if not pipe.envelope:
+            return None
+        axes = ring[None].copy()
+        axes[0, 2] = centre + _end_radius(pipe, sign) * tangent
+        return axes, None
+    radius = tubes.ring_radii[row]
+    if pipe.envelope:
+        m = max(2, pipe.cap_steps)
+        step = np.pi / (2 * m - 1)
+        lat = (np.arange(1, m) - 0.5) * step
+        scale = np.cos(lat) / np.cos(step / 2)
+        rise = np.sin(lat) / np.cos(step / 2) * radius * np.cos(np.pi / pipe.sides)
+        pole = radius * np.cos(np.pi / pipe.sides) / np.cos(step / 2)
+    else:
+        m = pipe.cap_steps
+        lat = (np.pi / 2) * np.arange(1, m) / m
+        scale, rise, pole = np.cos(lat), np.sin(lat) * radius, radius
+    axes = np.empty((len(lat), 3, 3))
+    axes[:, :2] = scale[:, None, None] * ring[:2]
+    axes[:, 2] = centre + rise[:, None] * tangent
+    return axes, centre + pole * tangent
+
+
+def _cap_reach(pipe, style, sign):
+    cap = cap_axes(pipe._tubes, 0 if sign < 0 else len(pipe.path) - 1, sign, pipe, style)
+    if cap is None:
+        return 0.0
+    end = pipe.path.points[0 if sign < 0 else -1]
+    tip = cap[0][-1, 2] if cap[1] is None else cap[1]
+    return float(np.linalg.norm(tip - end))
+
+
+def _end_radius(pipe, sign):
+    return float(pipe.radii[0 if sign < 0 else -1])
 
 
 def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
@@ -445,27 +612,142 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
     for g in capped:
         pipe = pipes[g]
-        round_caps = pipe.caps == "round"
-        start = cap_axes(tubes, firsts[g], -1, pipe) if cap_start[g] and round_caps else None
-        end = cap_axes(tubes, lasts[g], +1, pipe) if cap_end[g] and round_caps else None
+        styles = pipe.cap_styles
+        start = cap_axes(tubes, firsts[g], -1, pipe, styles[0]) if cap_start[g] else None
+        end = cap_axes(tubes, lasts[g], +1, pipe, styles[1]) if cap_end[g] else None
         if start is not None or end is not None:
             run = runs[g]
             runs[g] = np.concatenate([run[:0] if start is None else start[0][::-1], run,
                                       run[:0] if end is None else end[0]])
             rings_before[g] = 0 if start is None else len(start[0])
         caps[g] = (start, end)
-    first = surface.add_rings(runs, sides, parts, closed=groups.closed,
-                              seam_shift=tubes.seam_shift)
+    jointed = {}
+    for g, pipe in enumerate(pipes):
+        rows = firsts[g] + np.flatnonzero(joint_rows_of(tubes, firsts[g], lasts[g], pipe))
+        if rows.size:
+            jointed[g] = {int(r - firsts[g] + rings_before[g]): int(r) for r in rows}
+    plain = [g for g in range(len(pipes)) if g not in jointed]
+    row_start = [None] * len(pipes)
+    if plain:
+        starts = surface.add_rings([runs[g] for g in plain], sides[plain],
+                                   None if parts is None else np.asarray(parts)[plain],
+                                   closed=groups.closed[plain],
+                                   seam_shift=tubes.seam_shift[plain])
+        for g, start in zip(plain, starts.tolist()):
+            row_start[g] = start + int(sides[g]) * np.arange(len(runs[g]))
+    for g, rows in jointed.items():
+        row_start[g] = _add_jointed_run(surface, tubes, pipes[g], runs[g], rows,
+                                        bool(groups.closed[g]), int(tubes.seam_shift[g]),
+                                        None if parts is None else int(parts[g]))
     for g in capped:
         n, part = int(sides[g]), None if parts is None else int(parts[g])
         for wanted, cap, ring, at_end in (
-                (cap_start[g], caps[g][0], int(first[g]), False),
-                (cap_end[g], caps[g][1], int(first[g]) + (len(runs[g]) - 1) * n, True)):
+                (cap_start[g], caps[g][0], int(row_start[g][0]), False),
+                (cap_end[g], caps[g][1], int(row_start[g][-1]), True)):
             if not wanted:
                 continue
-            apex = None if cap is None else surface.add_vertices(
+            apex = None if cap is None or cap[1] is None else surface.add_vertices(
                 1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
-            surface.add_faces(n if cap is not None else n - 2, partial(
+            surface.add_faces(n if apex is not None else n - 2, partial(
                 write_fan, ring, n, apex, at_end), part)
-    ring0 = first + rings_before * sides
-    return ring0, ring0 + (groups.counts - 1) * sides
+    own = [rs[b:b + int(c)] for rs, b, c in zip(row_start, rings_before.tolist(),
+                                                 groups.counts.tolist())]
+    return np.array([o[0] for o in own]), np.array([o[-1] for o in own])
+
+# -- ball joints (corners="round") -------------------------------------------------
+def joint_rows_of(tubes, first, last, pipe):
+    """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) get a ball
+    joint: with ``corners="round"`` (and no envelope: a joint's faces beside the bend
+    axis fan from one unswept vertex and cut across the ball, so an envelope keeps
+    its miter joints, which hold every ball on the path), the corners whose miter
+    tip would stick out farther than the ring polygon's own chordal deviation,
+    ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep their miter, which
+    already holds the corner's ball."""
+    if pipe.corners != "round" or pipe.envelope:
+        return np.zeros(last - first + 1, bool)
+    return tubes.miter_stretch[first:last + 1] - 1.0 > 1.0 - np.cos(np.pi / pipe.sides)
+
+
+def _rotate(v, axis, angle):
+    """Rodrigues: (..., 3) vectors ``v`` turned by ``angle`` about the unit ``axis``."""
+    c, s = np.cos(angle), np.sin(angle)
+    return v * c + np.cross(axis, v) * s + np.outer(v @ axis, axis) * (1 - c)
+
+
+def _joint(tubes, row, pipe):
+    """A ball joint at corner ``row``: the rings that sweep the corner's ring about the
+    bend axis through the corner point, from the plane across the incoming segment to
+    the plane across the outgoing one.
+
+    Only the outside of the bend sweeps (the sphere of the ring radius about the
+    corner point, as a ball joint has); the inside keeps the miter ring's vertices,
+    where the two segments' cylinders meet.
+
+    Returns ``(outer, rings)``: the (sides,) bool mask of swept vertices and the
+    (K, sides, 3) ring vertices (inner vertices repeated; they are one vertex).
+    """
+    lines = tubes.lines
+    n = pipe.sides
+    centre = lines.xyz[:, row]
+    d_in, d_out = lines.incoming[:, row], lines.directions[:, row]
+    turn = float(lines.turning_angles[row])
+    axis = np.cross(d_in, d_out)
+    axis /= np.linalg.norm(axis)
+    miter = ring_basis(n) @ tubes.axes[row]
+    outer = (miter - centre) @ lines.bend_directions[:, row] < 0
+    radius = tubes.ring_radii[row]
+    normal = tubes.normals[:, row]
+    binormal = np.cross(lines.tangents[:, row], normal)
+    a = 2 * np.pi * np.arange(n) / n
+    offsets = radius * (np.cos(a)[:, None] * _rotate(normal[None], axis, -turn / 2)
+                        + np.sin(a)[:, None] * _rotate(binormal[None], axis, -turn / 2))
+    steps = max(1, int(np.ceil(turn / (np.pi / 2) * pipe.cap_steps)))
+    angles = turn * np.arange(steps + 1) / steps
+    along = np.outer(offsets @ axis, axis)
+    rings = np.empty((len(angles), n, 3))
+    for k, angle in enumerate(angles.tolist()):
+        rings[k] = centre + along + _rotate(offsets - along, axis, angle)
+    rings[:, ~outer] = miter[~outer]
+    return outer, rings
+
+
+def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
+    """Lay out a run of rings (axes, as :meth:`Surface.add_rings` takes them) whose
+    ``rows`` (index in ``run`` -> tube row) get ball joints: every ring a row of vertex
+    indices (a joint's inner vertices shared by its rings), faces between every two
+    rows as for plain rings, those made degenerate by a shared vertex dropped.
+
+    Returns the vertex index of each run row's first ring.
+    """
+    n, basis = pipe.sides, ring_basis(pipe.sides)
+    first = surface.vertex_count
+    blocks, table, row_start, count = [], [], np.empty(len(run), np.int64), 0
+    for r, axes in enumerate(run):
+        if r in rows:
+            outer, rings = _joint(tubes, rows[r], pipe)
+            extra = rings[1:, outer].reshape(-1, 3)
+            ids = np.empty((len(rings), n), np.int64)
+            ids[:] = first + count + np.arange(n)
+            ids[1:, outer] = (first + count + n + np.arange(len(extra))).reshape(
+                len(rings) - 1, -1)
+            blocks += [rings[0], extra]
+        else:
+            ids = (first + count + np.arange(n))[None]
+            blocks.append(basis @ axes)
+        row_start[r] = ids[0, 0]
+        count += sum(len(b) for b in blocks[-2 if r in rows else -1:])
+        table.append(ids)
+    vertices = np.concatenate(blocks)
+    table = np.concatenate(table)
+    upper, lower = table[:-1], table[1:]
+    if closed:
+        upper = np.vstack([upper, table[-1:]])
+        lower = np.vstack([lower, np.roll(table[:1], -seam_shift, axis=1)])
+    a, b = upper, np.roll(upper, -1, axis=1)
+    c, d = lower, np.roll(lower, -1, axis=1)
+    faces = np.stack([np.stack([a, b, c], -1), np.stack([b, d, c], -1)], axis=2).reshape(-1, 3)
+    faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+                  & (faces[:, 0] != faces[:, 2])]
+    surface.add_vertices(len(vertices), lambda out: np.copyto(out, vertices))
+    surface.add_faces(len(faces), lambda out: np.copyto(out, faces), part)
+    return row_start

@@ -24,7 +24,7 @@ from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
-from cadpipe.geometry.pipe import Pipe
+from cadpipe.geometry.pipe import Pipe, envelope_factor
 from cadpipe.geometry.splice import TRANSITIONS
 
 END_STYLES = ("open", "closed")
@@ -39,40 +39,56 @@ def _ends(ends):
 
 
 def _wall(wall, pipes):
-    """``wall`` as a float, thinner than every pipe's smallest radius."""
+    """``wall`` as a float, thinner than every pipe's smallest inradius (the distance
+    from its axis to its flat faces)."""
     wall = float(as_positive(wall, "wall"))
-    thinnest = min(float(p.radii.min()) for p in pipes)
+    thinnest = min(float(p.ring_radii.min()) / envelope_factor(p.sides) for p in pipes)
     if wall >= thinnest:
         raise InputError(f"{wall:g} must be less than the smallest pipe radius "
-                         f"{thinnest:g}", key="wall")
+                         f"{thinnest:g} (measured to the flat faces)", key="wall")
     return wall
 
 
-def bore(pipe, wall, start="open", end="open"):
-    """The :class:`Pipe` cut out of ``pipe`` to leave walls ``wall`` thick.
+def mouths(pipe, start="open", end="open"):
+    """The outer pipe of a hollow part: an open end is a mouth and ends flat, whatever
+    ``caps`` says, so the rim there is a flat ring of the full wall thickness (a round
+    cap cut by the bore would leave a knife edge)."""
+    styles = tuple("flat" if e == "open" else c for c, e in zip(pipe.cap_styles, (start, end)))
+    return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
-    Same path, sides, frames and caps, radius less ``wall``, rings aligned with the
-    outer rings. Per end: ``"open"`` runs the bore ``wall`` past the end (plus the
-    cap's reach for round caps), ``"closed"`` stops it ``wall`` short of a flat cap
-    (a round cap gets its own round cap inside), ``"flush"`` ends it with the pipe
-    (where a splice continues it).
+
+def bore(pipe, wall, start="open", end="open"):
+    """The :class:`Pipe` cut out of ``pipe`` (an outer pipe, see :func:`mouths`) to
+    leave walls ``wall`` thick across the flat faces.
+
+    Same path, sides, frames and caps, rings aligned with the outer rings and
+    ``wall / cos(pi / sides)`` smaller, so each flat face of the bore lies ``wall``
+    inside the outer face parallel to it (the vertices are farther apart). Per end:
+    ``"open"`` runs the bore ``wall`` past the outer solid's end, ``"closed"`` stops it
+    ``wall`` short of a flat cap (a round cap gets its own round cap inside),
+    ``"flush"`` ends it with the pipe (where a splice continues it).
     """
-    reach = pipe.ring_radii.max() if pipe.caps == "round" else 0.0
-    extend = {"open": wall + reach, "closed": 0.0, "flush": 0.0}
-    trim = {"open": 0.0, "closed": wall if pipe.caps == "flat" else 0.0, "flush": 0.0}
-    path, radii = pipe.path, pipe.radii - wall
-    if not path.closed and (extend[start] or extend[end]):
-        head = [path.points[0] - extend[start] * path.directions[0]] if extend[start] else []
-        tail = [path.points[-1] + extend[end] * path.directions[-1]] if extend[end] else []
+    ends = (start, end)
+    run = [0.0 if pipe.closed or e == "flush" else reach + wall if e == "open"
+           else reach - wall if style == "flat" else 0.0
+           for e, style, reach in zip(ends, pipe.cap_styles, pipe.cap_reach)]
+    path = pipe.path
+    radii = pipe.ring_radii - wall * envelope_factor(pipe.sides)
+    extend = [max(r, 0.0) for r in run]
+    if any(extend):
+        head = [path.points[0] - extend[0] * path.directions[0]] if extend[0] else []
+        tail = [path.points[-1] + extend[1] * path.directions[-1]] if extend[1] else []
         path = Path(np.vstack([*head, path.points, *tail]))
         radii = np.concatenate([radii[:len(head)], radii, radii[len(radii) - len(tail):]])
-    inner = pipe.replace(path=path, radius=radii, normal=pipe.normals[0])
-    if path.closed or not (trim[start] or trim[end]):
+    inner = pipe.replace(path=path, radius=radii, sides=pipe.sides, envelope=False,
+                         normal=pipe.normals[0])
+    cut = [max(-r, 0.0) for r in run]
+    if not any(cut):
         return inner
-    if trim[start] + trim[end] >= path.length:
+    if sum(cut) >= path.length:
         raise InputError(f"closed ends {wall:g} thick leave no bore in a pipe "
                          f"{path.length:g} long; use a thinner wall or open ends", key="wall")
-    return inner.trimmed(trim[start], trim[end])
+    return inner.trimmed(*cut)
 
 
 class Hollow:
@@ -108,7 +124,9 @@ class HollowPipe(Hollow):
     pipe : Pipe
         The outer surface.
     wall : float
-        Wall thickness, less than the pipe's smallest radius.
+        Wall thickness in metres, measured across the flat faces (between each outer
+        face and the bore face parallel to it), less than the pipe's smallest
+        inradius.
     ends : {"open", "closed"} or pair of them
         Per end (start, end) of an open path. An open end's bore runs ``wall`` past
         the end (plus the cap's reach for round caps), so the end is cut clean; use
@@ -147,9 +165,14 @@ class HollowPipe(Hollow):
         return f"<cadpipe.HollowPipe wall {self.wall:g}, ends {ends}, {self.pipe!r}>"
 
     @cached_property
+    def outer(self) -> Pipe:
+        """The outer :class:`Pipe`: :attr:`pipe` with flat mouths (see :func:`mouths`)."""
+        return mouths(self.pipe, *self.ends)
+
+    @cached_property
     def bore(self) -> Pipe:
         """The :class:`Pipe` cut out of the outer one (see :func:`bore`)."""
-        return bore(self.pipe, self.wall, *self.ends)
+        return bore(self.outer, self.wall, *self.ends)
 
     def solids(self) -> tuple[list[Mesh], list[Mesh]]:
         """What an assembly adds and what it cuts.
@@ -159,7 +182,7 @@ class HollowPipe(Hollow):
         solids, bores : list of Mesh
             ``[outer mesh]`` and ``[bore mesh]``.
         """
-        return [self.pipe.mesh()], [self.bore.mesh()]
+        return [self.outer.mesh()], [self.bore.mesh()]
 
     @property
     def attributes(self) -> Mapping[str, Any]:
@@ -262,6 +285,9 @@ class HollowChain(Hollow):
         outers = make_room(list(self.pipes), self.closed)
         last = len(outers) - 1
         open_ends = not self.closed
+        if open_ends:
+            outers[0] = mouths(outers[0], self.ends[0], "closed")
+            outers[last] = mouths(outers[last], "closed", self.ends[1])
         bores = [bore(p, self.wall, self.ends[0] if i == 0 and open_ends else "flush",
                       self.ends[1] if i == last and open_ends else "flush")
                  for i, p in enumerate(outers)]
