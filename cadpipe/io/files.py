@@ -270,6 +270,13 @@ def _trimesh_scene(path, key):
     if isinstance(loaded, trimesh.Trimesh):
         pieces = [(path.stem, loaded)]
     elif isinstance(loaded, trimesh.Scene):
+        from cadpipe import limits
+
+        # a 3MF's build items and components may repeat one object many times over
+        limits.check("max_triangles", sum(len(getattr(loaded.geometry[loaded.graph[n][1]],
+                                                      "faces", ())) for n in
+                                          loaded.graph.nodes_geometry),
+                     "this file's placed objects", file=path)
         pieces = []
         for node in loaded.graph.nodes_geometry:
             matrix, name = loaded.graph[node]

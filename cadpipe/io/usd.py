@@ -32,6 +32,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.errors import ExportError, MeshError
 from cadpipe.io.scene import TO_Y_UP, as_scene, printable
@@ -274,7 +275,7 @@ def read_usd(path):
     units = next((k for k, v in UNITS.items() if np.isclose(v, mpu)), None)
     scale = 1.0 if units else mpu
     turn = TO_Y_UP["Z"].T if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y else np.eye(3)
-    parts, colors, taken = [], {}, set()
+    parts, colors, taken, triangles = [], {}, set(), 0
     for prim in stage.Traverse():
         if not prim.IsA(UsdGeom.Mesh):
             continue
@@ -284,6 +285,8 @@ def read_usd(path):
         indices = np.asarray(geom.GetFaceVertexIndicesAttr().Get() or [], dtype=np.int64)
         if len(counts) == 0 or counts.sum() != len(indices) or (counts < 3).any():
             continue
+        triangles += int((counts - 2).sum())      # checked before the fans are made
+        limits.check("max_triangles", triangles, "reading this USD file", file=path)
         faces, polygon = _fan(counts, indices)
         world = np.array(geom.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
         vertices = (points @ world[:3, :3].T + world[:3, 3]) @ (turn * scale).T
