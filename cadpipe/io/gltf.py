@@ -206,7 +206,7 @@ def read_glb(path):
         raise MeshError("its JSON nests too deeply to read", file=path) from None
     try:
         order = _scene_nodes(doc)
-        _check_budget(doc, order, path, len(data))
+        _check_budget(doc, order, path, len(data), len(binary))
         parts, colors = _gltf_parts(doc, order, binary)
     except CadpipeError:
         raise
@@ -245,9 +245,16 @@ def _scene_nodes(doc):
     return order
 
 
-def _check_budget(doc, order, path, size):
+def _check_budget(doc, order, path, size, stored):
     """Refuse a GLB that would expand past :mod:`cadpipe.limits`' budgets, from the
-    counts its accessors declare, before any array is read."""
+    counts its accessors declare, before any array is read; and one whose buffer or
+    views claim more bytes than its binary chunk holds (``stored``)."""
+    claimed = max([b.get("byteLength", 0) for b in doc.get("buffers", [])[:1]] +
+                  [v.get("byteOffset", 0) + v["byteLength"] for v in doc.get("bufferViews", [])
+                   if v.get("buffer", 0) == 0], default=0)
+    if not claimed <= stored:
+        raise MeshError(f"truncated: its buffers claim {shown(claimed)} bytes, its binary "
+                        f"chunk holds {stored:,}", file=path)
     nodes, meshes, accessors = doc.get("nodes", []), doc.get("meshes", []), \
         doc.get("accessors", [])
     triangles = points = 0
