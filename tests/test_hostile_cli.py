@@ -17,7 +17,6 @@ import subprocess
 import sys
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path as FilePath
 
 import pytest
 import trimesh
@@ -126,13 +125,15 @@ def nested(depth, fmt):
 
 #: (id, argv with {} for the case folder, files: name -> text | callable(folder))
 CASES = [
-    ("output-dotdot", ("build", "{}/spec.toml"), {"spec.toml": 'outputs = ["../victim.obj"]\n' + BOX}),
+    ("output-dotdot", ("build", "{}/spec.toml"),
+     {"spec.toml": 'outputs = ["../victim.obj"]\n' + BOX}),
     ("output-absolute", ("build", "{}/spec.toml"),
      {"spec.toml": lambda f: f'outputs = ["{f.parent / "victim.obj"}"]\n' + BOX}),
     ("output-link-out", ("build", "{}/spec.toml"),
      {"spec.toml": 'outputs = ["link/cadpipe-hostile.stl"]\n' + BOX, "_": links}),
     ("output-nul", ("build", "{}/spec.json"),
-     {"spec.json": json.dumps({"outputs": ["a\u0000.stl"], "parts": [{"kind": "box", "size": 1}]})}),
+     {"spec.json": json.dumps({"outputs": ["a\u0000.stl"],
+                               "parts": [{"kind": "box", "size": 1}]})}),
     ("spline-step-1e-12", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"),
      {"spec.toml": toml_pipe(f"{{points = {LINE}, spline = true, step = 1e-12}}")}),
     ("coordinates-1e308", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"),
