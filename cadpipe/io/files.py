@@ -229,13 +229,13 @@ def file_mesh(vertices, faces, path, name, **options):
 
     vertices = np.asarray(vertices, dtype=np.float64)
     if not (np.abs(vertices) <= MAX_MAGNITUDE).all():
-        raise MeshError(f"part {name!r}: some vertex coordinates are NaN or infinite "
-                        f"(or beyond {MAX_MAGNITUDE:g}); the file is corrupt", file=path,
-                        part=name)
+        raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
+                        f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
     try:
         return Mesh(vertices, faces, **options)
     except InputError as exc:
-        raise MeshError(f"part {name!r}: {exc}", file=path, part=name) from None
+        raise MeshError(exc.message, key=exc.key, file=path, part=name,
+                        index=exc.index) from None
 
 
 def welded(mesh):
@@ -310,7 +310,8 @@ def _trimesh_scene(path, key):
 def _face_colour_labels(tm, name):
     """Labels of a trimesh's faces by face colour (a PLY's, a 3MF's), names and colours."""
     raw = tm.metadata.get("_ply_raw", {}).get("face", {}).get("data")
-    if raw is not None and all(c in raw.dtype.names for c in ("red", "green", "blue")):
+    fields = raw if isinstance(raw, dict) else getattr(getattr(raw, "dtype", None), "names", None)
+    if fields and all(c in fields for c in ("red", "green", "blue")):   # ASCII PLY: a dict
         rgb = np.column_stack([raw["red"], raw["green"], raw["blue"]]).astype(np.uint8)
     elif tm.visual.kind == "face":
         rgb = np.asarray(tm.visual.face_colors)[:, :3]

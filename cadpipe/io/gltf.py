@@ -217,7 +217,9 @@ def read_glb(path):
     to_z_up[:3, :3] = TO_Y_UP["Z"].T
     taken, scene_parts = set(), []
     for name, vertices, faces, labels, names in parts:
-        mesh = file_mesh(vertices @ to_z_up[:3, :3].T, faces, path, name, face_part=labels,
+        with np.errstate(all="ignore"):           # inf/NaN: file_mesh names the part
+            vertices = vertices @ to_z_up[:3, :3].T
+        mesh = file_mesh(vertices, faces, path, name, face_part=labels,
                          part_names=names, attributes={"source": str(path), "units": "m"})
         scene_parts.append(ScenePart(unique_name(name, taken), mesh))
     if not scene_parts:
@@ -307,7 +309,8 @@ def _gltf_parts(doc, order, binary):
             continue
         offsets = np.cumsum([0] + [len(v) for v, _, _ in pieces[:-1]])
         vertices = np.concatenate([v for v, _, _ in pieces]).astype(np.float64)
-        vertices = vertices @ world[:3, :3].T + world[:3, 3]
+        with np.errstate(all="ignore"):           # inf/NaN: file_mesh names the part
+            vertices = vertices @ world[:3, :3].T + world[:3, 3]
         faces = np.concatenate([f + o for (_, f, _), o in zip(pieces, offsets)])
         if np.linalg.det(world[:3, :3]) < 0:
             faces = faces[:, ::-1]
