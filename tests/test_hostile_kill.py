@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import cadpipe
+from cadpipe.io.files import load_mesh
 
 KILLS = 8                       # per format
 WRITER = """
@@ -46,7 +47,7 @@ def _temporaries(folder):
 
 
 def _faces(path):
-    return len(cadpipe.load_mesh(path).faces)
+    return len(load_mesh(path).faces)
 
 
 @pytest.mark.slow
@@ -98,8 +99,8 @@ def test_a_killed_build_leaves_nothing_the_next_build_does_not_remove(tmp_path):
         time.sleep(float(rng.uniform(0, 0.3)))
         proc.send_signal(signal.SIGKILL)
         proc.wait(timeout=60)
-        assert not out.exists() or len(cadpipe.load_mesh(out).faces) > 0
+        assert not out.exists() or len(load_mesh(out).faces) > 0
     done = subprocess.run(argv, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert _temporaries(out.parent) == []
-    assert cadpipe.load_mesh(out).is_watertight
+    assert load_mesh(out).is_watertight
