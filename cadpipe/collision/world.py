@@ -71,7 +71,8 @@ def as_poses(transforms, name, shape=None):
     :class:`InputError` naming the object."""
     m = as_matrix(transforms, part=name, stack=True, rigid=True)
     if shape is not None and m.shape != shape:
-        raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
+        raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name,
+                         key="transform")
     return m
 
 
@@ -287,7 +288,7 @@ class Scene:
         self-collision pairs; every object is checked against every other.
         """
         if not isinstance(name, str) or not name:
-            raise InputError(f"object name must be a non-empty string, got {name!r}")
+            raise InputError(f"object name must be a non-empty string, got {name!r}", key="name")
         if name in self._index:
             raise InputError("an object of that name is already in the world; "
                              "use set_pose() to move it or pick another name", part=name)
@@ -361,7 +362,7 @@ class Scene:
         group = robot.name if group is None else str(group)
         if group in self._robots:
             raise InputError(f"a robot with group {group!r} is already in the world; "
-                             "pass another group=")
+                             "pass another group=", key="group")
         base = as_pose(transform, f"robot {robot.name}")
         shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
@@ -378,7 +379,8 @@ class Scene:
 
     def _robot(self, group):
         if group not in self._robots:
-            raise InputError(f"no robot in group {group!r}; robots: {', '.join(self._robots)}")
+            raise InputError(f"no robot in group {group!r}; robots: {', '.join(self._robots)}",
+                             key="group")
         return self._robots[group]
 
     def set_joints(self, group, joints):
@@ -515,7 +517,8 @@ class Checker:
         table, groups = self.layout.table, self.layout.groups
         if group not in set(groups):
             raise InputError(f"check(only={group!r}): no object in that group; groups: "
-                             + ", ".join(sorted({str(g) for g in groups if g is not None})))
+                             + ", ".join(sorted({str(g) for g in groups if g is not None})),
+                             key="only")
         member = groups == group
         return member[table.first] | member[table.second]
 
@@ -653,7 +656,8 @@ class Checker:
         body = self.scene._bodies[i]
         if body.kind != "chain":
             raise InputError(f"inside({pipe_name!r}): that object is a mesh; inside() needs a "
-                             "pipe, sphere or capsule (use distance() for meshes)")
+                             "pipe, sphere or capsule (use distance() for meshes)",
+                             part=pipe_name)
         points = as_points(points, "points")
         return containment(body.chain.moved(self.scene._poses[i]), points)
 
@@ -785,12 +789,13 @@ class CollisionWorld(Scene):
         """
         if not hasattr(poses, "items") or not poses:
             raise InputError("check_many(poses): pass a mapping of object names to (C, 4, 4) "
-                             "pose arrays")
+                             "pose arrays", key="poses")
         ids = np.array([self._find(name) for name in poses])
         stacked = [as_poses(p, name) for name, p in poses.items()]
         if any(p.ndim != 3 for p in stacked) or len({len(p) for p in stacked}) != 1:
             raise InputError("check_many(poses): every object needs a (C, 4, 4) array with the "
-                             "same C, got shapes " + ", ".join(str(p.shape) for p in stacked))
+                             "same C, got shapes " + ", ".join(str(p.shape) for p in stacked),
+                             key="poses")
         return self.checker.check_moving(ids, np.stack(stacked, axis=1), stop_after_self,
                                          certify)
 

@@ -72,15 +72,15 @@ def save_stage(stage, path):
     with atomic_path(path) as tmp:
         if kind != "usdz":
             if not stage.GetRootLayer().Export(str(tmp)):
-                raise ExportError(f"{path}: usd-core could not write the layer")
+                raise ExportError("usd-core could not write the layer", file=path)
             return
         # a .usdz is a zip of a root layer: write that as .usdc, then let usd-core package it
         with tempfile.TemporaryDirectory(prefix="cadpipe-usdz-") as folder:
             root = FilePath(folder) / (FilePath(path).stem + ".usdc")
             if not stage.GetRootLayer().Export(str(root)):
-                raise ExportError(f"{path}: usd-core could not write the layer to package")
+                raise ExportError("usd-core could not write the layer to package", file=path)
             if not UsdUtils.CreateNewARKitUsdzPackage(Sdf.AssetPath(str(root)), str(tmp)):
-                raise ExportError(f"{path}: usd-core could not package the .usdz")
+                raise ExportError("usd-core could not package the .usdz", file=path)
 
 
 def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE, up_axis=None, normals=True):
