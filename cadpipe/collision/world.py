@@ -421,6 +421,14 @@ class _Layout:
         self.half = np.array([b.obb[2] for b in bodies]).reshape(-1, 3)
         #: group (or None for all) -> (P,) mask of the pairs ``check(only=group)`` decides
         self.chosen = {}
+        self._bodies = tuple(bodies)
+
+    @cached_property
+    def pieces(self):
+        """Every object's convex pieces (:class:`cadpipe.collision.convex.Pieces`)."""
+        from cadpipe.collision.convex import Pieces
+
+        return Pieces(self._bodies)
 
     def place(self, ids, poses):
         """Bounds of objects ``ids`` (E,) at ``poses`` (E, 4, 4): world 18-DOPs
@@ -472,11 +480,16 @@ class Checker:
     def check(self, stop_after_self=False, certify=False, first_hit=False, only=None):
         """Decide every pair where the objects stand; a :class:`CollisionReport`.
         See :meth:`CollisionWorld.check`."""
+        return self._standing(self.chosen(only), stop_after_self, certify, first_hit)
+
+    def chosen(self, only=None):
+        """(P,) mask of the pairs ``check(only=only)`` decides: not allowed, and with
+        an object of group ``only`` (every pair for None); made once per layout."""
         layout = self.layout
-        if only not in layout.chosen:                # decided once per layout
+        if only not in layout.chosen:
             layout.chosen[only] = ~layout.table.allowed if only is None else \
                 ~layout.table.allowed & self._involving(only)
-        return self._standing(layout.chosen[only], stop_after_self, certify, first_hit)
+        return layout.chosen[only]
 
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
