@@ -29,6 +29,9 @@ _jit = numba.njit(cache=True, nogil=True, error_model="numpy")    # x / 0 is inf
 
 #: GJK iterations before the best bound so far is returned
 ITERATIONS = 40
+#: the funnel's budget: a pair its hulls have not proven apart by then goes on to
+#: the exact phase (pairs clearly apart are proven in a few steps; touching ones never)
+FUNNEL_ITERATIONS = 10
 #: relative rounding slack taken off every bound (of the pieces' size and place)
 SLACK = 1e-10
 
@@ -55,10 +58,11 @@ def _support(points, pads, lo, hi, m, dx, dy, dz):
 
 
 @_jit
-def gap(points, pads, lo_a, hi_a, m_a, lo_b, hi_b, m_b, enough):
+def gap(points, pads, lo_a, hi_a, m_a, lo_b, hi_b, m_b, enough, iterations=ITERATIONS):
     """A lower bound of the distance between the hulls of padded points ``lo_a:hi_a``
     placed by ``m_a`` (4, 4) and ``lo_b:hi_b`` placed by ``m_b``; > 0 proves them
-    apart, <= 0 says nothing. It stops as soon as the bound reaches ``enough``.
+    apart, <= 0 says nothing. It stops as soon as the bound reaches ``enough``, or
+    after ``iterations`` steps.
 
     The simplex is a segment (Gilbert's original step: ``v`` moves to the point
     of ``[v, w]`` nearest the origin), all in scalars: no array is allocated.
@@ -67,7 +71,7 @@ def gap(points, pads, lo_a, hi_a, m_a, lo_b, hi_b, m_b, enough):
     bx, by, bz = _support(points, pads, lo_b, hi_b, m_b, -1.0, 0.0, 0.0)
     vx, vy, vz = ax - bx, ay - by, az - bz
     lower, scale = -np.inf, 0.0
-    for _ in range(ITERATIONS):
+    for _ in range(iterations):
         vv = vx * vx + vy * vy + vz * vz
         if not vv > 0.0:             # touching (or NaN): nothing more to prove
             break
@@ -89,7 +93,8 @@ def gap(points, pads, lo_a, hi_a, m_a, lo_b, hi_b, m_b, enough):
 
 
 @_jit
-def body_gap(points, pads, piece_starts, centre, radius, pieces, i, m_i, j, m_j, enough):
+def body_gap(points, pads, piece_starts, centre, radius, pieces, i, m_i, j, m_j, enough,
+             iterations=ITERATIONS):
     """A lower bound of the distance between objects ``i`` and ``j`` at poses ``m_i``,
     ``m_j`` (4, 4), from their pairs of convex pieces (object ``k``'s are
     ``pieces[k]:pieces[k + 1]``, piece ``q``'s padded points
@@ -117,7 +122,8 @@ def body_gap(points, pads, piece_starts, centre, radius, pieces, i, m_i, j, m_j,
                 best = min(best, balls)
                 continue
             g = max(balls, gap(points, pads, piece_starts[p], piece_starts[p + 1], m_i,
-                               piece_starts[q], piece_starts[q + 1], m_j, min(best, enough)))
+                               piece_starts[q], piece_starts[q + 1], m_j, min(best, enough),
+                               iterations))
             best = min(best, g)
             if best <= 0.0:
                 return best
@@ -153,8 +159,8 @@ class Pieces:
                 pads.append(pad)
                 sizes.append(len(hull))
                 owners.append(k)
-        self.points = np.concatenate(points).reshape(-1, 3).astype(np.float64)
-        self.pads = np.concatenate(pads).astype(np.float64)
+        self.points = np.concatenate(points or [np.zeros((0, 3))]).reshape(-1, 3).astype(float)
+        self.pads = np.concatenate(pads or [np.zeros(0)]).astype(np.float64)
         self.piece_starts = np.r_[0, np.cumsum(sizes)].astype(np.int64)
         self.pieces = np.searchsorted(owners, np.arange(len(bodies) + 1)).astype(np.int64)
         self.centre = np.empty((len(sizes), 3))
