@@ -20,8 +20,10 @@ advancement (Mirtich 1996; Schwarzer, Saha and Latombe 2005), pair by pair:
    against a standing object has ``D = D_L``.
 3. **Advancing.** If a pair is apart by ``d`` at ``t``, it cannot touch before
    ``t + d / D``: that stretch is proven free and the pair advances there.
-   A cheap lower bound of ``d`` (bounding spheres) is tried first, the
-   exact clearance (:meth:`CollisionWorld.distance_at`) when it is not enough.
+   Cheap lower bounds of ``d`` are tried first -- bounding balls, then the
+   convex pieces' GJK bound (:mod:`cadpipe.collision.convex`); a bound of at
+   least :data:`EXACT_BELOW` advances the pair by itself, and only below that
+   is the exact clearance (:meth:`CollisionWorld.distance_at`) asked for.
    The start of each segment is checked whole (:meth:`CollisionWorld.check_path`,
    containment included); after it only boundaries can meet first, so the
    advancement measures the distance between boundaries.
@@ -272,7 +274,8 @@ def _advance(world, robot, base, chain, pairs, q_a, q_b, v_a, v_b, tolerance):
 
     Each round places the links of every pair still short of the horizon at
     its own ``t`` (one batched forward-kinematics call), advances the pairs
-    whose bounding balls already prove the rest of the way, and asks the exact
+    whose bounding balls or convex pieces prove the rest of the way, steps the
+    pairs whose bound is at least :data:`EXACT_BELOW` by it, and asks the exact
     clearance of the others.
     """
     frames = robot.all_frame_poses(q_a[None], base)[0]
