@@ -50,7 +50,7 @@ TOLERANCE = 1e-4
 MAX_ROUNDS = 10_000
 #: clearance bounds (world units) below which the exact clearance is asked for; above
 #: it the pair advances by its bound alone
-EXACT_BELOW = 2e-3
+EXACT_BELOW = 5e-4
 
 
 @dataclass(frozen=True)

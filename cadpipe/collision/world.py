@@ -395,7 +395,9 @@ class Scene:
         """Re-pose the links of the robot added as ``group`` (one configuration: a
         sequence over ``robot.actuated`` or a mapping by joint name)."""
         robot, base, ids = self._robot(group)
-        self._moved(ids, robot.link_poses_at(joints, base))
+        # the links were added one after another: a slice moves them without fancy indexing
+        self._moved(slice(ids[0], ids[0] + len(ids)) if len(ids) else ids,
+                    robot.link_poses_at(joints, base))
 
 
 # -- the checker ---------------------------------------------------------------------
