@@ -124,3 +124,17 @@ def test_meshes_built_in_threads_equal_those_built_one_by_one():
     for i in range(len(meshes)):
         for j in range(i):
             assert not np.shares_memory(meshes[i].faces, meshes[j].faces)
+
+
+def test_memory_left_behind_stays_within_the_limit(monkeypatch):
+    monkeypatch.setattr(buffers, "RETAIN_BYTES", 3 * (8 << 20))
+    kept = [buffers.empty((1 << 20,)) for _ in range(6)]       # 8 MiB each, all in use
+    for a in kept:
+        a[:] = 1.0
+    assert len({address(a) for a in kept}) == 6
+    del kept
+    assert buffers.retained_bytes() <= buffers.RETAIN_BYTES
+    monkeypatch.setattr(buffers, "RETAIN_BYTES", 0)              # recycling off
+    buffers.release()
+    buffers.empty((1 << 20,))
+    assert buffers.retained_bytes() == 0

@@ -11,8 +11,9 @@ pages (``docs/performance.md``).
 again only once nothing refers to it any more (every array made from it is a view whose
 ``base`` is the block, so its reference count says whether a mesh still uses it): a mesh a
 user keeps is never overwritten, and a dropped mesh's memory serves the next one with no
-page faults, as PyTorch's caching allocator does for GPU memory. Blocks nobody uses are kept
-up to :data:`RETAIN_BYTES` in all; :func:`release` hands them back to the system.
+page faults, as PyTorch's caching allocator does for GPU memory. Tracked blocks total at most
+:data:`RETAIN_BYTES` (beyond it arrays come from numpy as before), so that is the most memory
+kept once unused; :func:`release` hands unused blocks back to the system.
 """
 
 import os
@@ -28,8 +29,9 @@ MIN_BYTES = 1 << 22
 GRAIN = 1 << 21
 #: a free block serves a request up to this fraction larger than itself
 SLACK = 0.125
-#: most unused bytes kept for reuse: an eighth of physical memory
-RETAIN_BYTES = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 8
+#: most bytes in tracked blocks (so at most this stays behind once unused): a sixteenth of
+#: physical memory; 0 turns recycling off
+RETAIN_BYTES = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 16
 #: most blocks tracked at once (in use or not); beyond it arrays come from numpy directly
 MAX_BLOCKS = 64
 
@@ -87,17 +89,22 @@ def _idle_block(nbytes):
 
 
 def _new_block(nbytes):
-    """A fresh block of ``nbytes`` rounded up to :data:`GRAIN`, tracked if room is left
-    after dropping the oldest unused blocks beyond :data:`RETAIN_BYTES`."""
+    """A fresh block of ``nbytes`` rounded up to :data:`GRAIN`, tracked if the tracked
+    blocks (in use or not) stay within :data:`RETAIN_BYTES` and :data:`MAX_BLOCKS` once
+    the oldest unused ones are dropped: so however many meshes a user keeps and later
+    drops, at most that much memory stays behind."""
     block = np.empty(-(-nbytes // GRAIN) * GRAIN, np.uint8)
-    idle = _idle(_blocks)
-    spare = sum(b.size for b in idle) + block.size - RETAIN_BYTES
-    for old in idle:
-        if spare <= 0 and len(_blocks) < MAX_BLOCKS:
+    tracked = sum(b.size for b in _blocks) + block.size
+
+    def room():
+        return tracked <= RETAIN_BYTES and len(_blocks) < MAX_BLOCKS
+
+    for old in _idle(_blocks):
+        if room():
             break
         _blocks.remove(old)
-        spare -= old.size
-    if len(_blocks) < MAX_BLOCKS and block.size <= RETAIN_BYTES:
+        tracked -= old.size
+    if room():
         _blocks.append(block)
     return block
 
