@@ -12,9 +12,13 @@ Each case is timed three ways, every figure a median over --repeat runs:
 
 Cases: helixes of 1k, 10k, 100k and 1M points (16 sides, radius 0.05) and a long thin
 straight pipe (2 points, length 1000, radius 0.001). Prints wall and CPU seconds (CPU time
-is steadier on a shared machine), the interleaved / alone ratio and trimesh / cadpipe.
+is steadier on a shared machine), each mode's ratio to the alone runs and trimesh / cadpipe.
+
+``--no-recycling`` sets ``cadpipe.geometry.buffers.RETAIN_BYTES = 0``: every output array is
+fresh numpy memory, as before the output blocks were recycled.
 
 Run: .venv/bin/python benchmarks/bench_pipes.py [--repeat 7] [--sizes 1000 10000 ...] [--vtk]
+[--no-recycling]
 """
 
 import argparse
@@ -26,6 +30,7 @@ import shapely
 import trimesh
 
 import cadpipe
+from cadpipe.geometry import buffers
 
 SIDES, RADIUS = 16, 0.05
 LONG = ("long thin", np.array([[0.0, 0.0, 0.0], [1000.0, 0.0, 0.0]]), 0.001)
@@ -80,14 +85,19 @@ def main():
     parser.add_argument("--no-long", action="store_true", help="skip the long thin pipe")
     parser.add_argument("--keep-up-to", type=int, default=100_000)
     parser.add_argument("--vtk", action="store_true", help="add VTK's tube filter (PyVista)")
+    parser.add_argument("--no-recycling", action="store_true",
+                        help="fresh numpy memory for every output (as before recycling)")
     args = parser.parse_args()
+    if args.no_recycling:
+        buffers.RETAIN_BYTES = 0
     cases = [(f"helix {n:,}", helix(n), RADIUS) for n in args.sizes]
     if not args.no_long:
         cases.append(LONG)
-    print(f"{SIDES} sides; medians of {args.repeat} runs; load average "
+    print(f"{SIDES} sides; medians of {args.repeat} runs; output recycling "
+          f"{'off' if args.no_recycling else 'on'}; load average "
           + " ".join(f"{x:.2f}" for x in os.getloadavg()))
     print(f"{'case':16} {'mode':12} {'method':9} {'wall s':>8} {'cpu s':>8} "
-          f"{'wall / alone':>12} {'trimesh / cadpipe':>17}")
+          f"{'/ alone: wall':>13} {'cpu':>6} {'trimesh / cadpipe: wall':>23} {'cpu':>6}")
     for label, path, radius in cases:
         methods = peers(path, radius, args.vtk)
         for _, build in methods:                # warm up imports and caches
@@ -98,9 +108,10 @@ def main():
             result = run_case(methods, args.repeat, mode)
             alone = alone or result
             for name, (wall, cpu) in result.items():
+                versus = result["trimesh"] / result[name] if name == "cadpipe" else None
                 print(f"{label:16} {mode:12} {name:9} {wall:8.4f} {cpu:8.4f} "
-                      f"{wall / alone[name][0]:11.2f}x "
-                      + (f"{result['trimesh'][0] / wall:16.2f}x" if name == "cadpipe" else ""))
+                      f"{wall / alone[name][0]:12.2f}x {cpu / alone[name][1]:5.2f}x"
+                      + ("" if versus is None else f" {versus[0]:22.2f}x {versus[1]:5.2f}x"))
     print("load average after: " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 
