@@ -138,3 +138,16 @@ def test_memory_left_behind_stays_within_the_limit(monkeypatch):
     buffers.release()
     buffers.empty((1 << 20,))
     assert buffers.retained_bytes() == 0
+
+
+def test_unused_blocks_of_other_sizes_are_dropped_behind_one_in_use(monkeypatch):
+    monkeypatch.setattr(buffers, "RETAIN_BYTES", 24 << 20)
+    kept = buffers.empty(1 << 20)                  # 8 MiB, in use, first in the list
+    dropped = buffers.empty(2 << 20)               # 16 MiB, then unused
+    del dropped
+    bigger = buffers.empty(3 << 19)                # 12 MiB: too small a fit, so a new block
+    assert not np.shares_memory(kept, bigger)
+    assert buffers.retained_bytes() == 0           # the unused 16 MiB went to make room
+    del bigger
+    assert buffers.release() == 12 << 20
+    assert kept.base is not None and buffers.retained_bytes() == 0

@@ -102,7 +102,7 @@ def _new_block(nbytes):
     for old in _idle(_blocks):
         if room():
             break
-        _blocks.remove(old)
+        _forget([old])
         tracked -= old.size
     if room():
         _blocks.append(block)
@@ -125,6 +125,11 @@ def release() -> int:
     """
     with _lock:
         idle = _idle(_blocks)
-        for block in idle:
-            _blocks.remove(block)
+        _forget(idle)
         return sum(b.size for b in idle)
+
+
+def _forget(blocks):
+    """Stop tracking ``blocks`` (by identity: ``==`` on arrays compares their elements)."""
+    gone = {id(b) for b in blocks}
+    _blocks[:] = [b for b in _blocks if id(b) not in gone]
