@@ -111,7 +111,7 @@ def main():
                 versus = result["trimesh"] / result[name] if name == "cadpipe" else None
                 print(f"{label:16} {mode:12} {name:9} {wall:8.4f} {cpu:8.4f} "
                       f"{wall / alone[name][0]:12.2f}x {cpu / alone[name][1]:5.2f}x"
-                      + ("" if versus is None else f" {versus[0]:22.2f}x {versus[1]:5.2f}x"))
+                      + ("" if versus is None else f" {versus[0]:22.3g}x {versus[1]:5.3g}x"))
     print("load average after: " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 

@@ -5,7 +5,8 @@ For both transition kinds: medians over --repeat runs of the splice alone (back 
 each result dropped), interleaved with a trimesh sweep of a 100,000-point helix (A B A B in
 one process), and interleaved with every result kept (no output memory can be reused); wall
 and CPU seconds, output vertices per second. The pipe-building helpers are bench_pipes'.
-Run: .venv/bin/python benchmarks/bench_splice.py [--repeat 7]
+``--no-recycling``: fresh numpy memory for every output, as before recycled output blocks.
+Run: .venv/bin/python benchmarks/bench_splice.py [--repeat 7] [--no-recycling]
 """
 
 import argparse
@@ -14,6 +15,7 @@ import os
 import numpy as np
 
 import cadpipe
+from cadpipe.geometry import buffers
 from bench_pipes import RADIUS, helix, peers, run_case
 
 PIPES, POINTS = 1000, 200
@@ -32,11 +34,15 @@ def chain(rng):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument("--no-recycling", action="store_true")
     args = parser.parse_args()
+    if args.no_recycling:
+        buffers.RETAIN_BYTES = 0
     pipes = chain(np.random.default_rng(0))
     other = peers(helix(100_000), RADIUS, vtk=False)[1]          # trimesh's sweep
     print(f"chain of {PIPES} pipes x {POINTS} points, sides 3..16; medians of {args.repeat} "
-          "runs; load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+          f"runs; output recycling {'off' if args.no_recycling else 'on'}; load average "
+          + " ".join(f"{x:.2f}" for x in os.getloadavg()))
     print(f"{'transition':10} {'mode':12} {'wall s':>8} {'cpu s':>8} {'wall / alone':>12} "
           f"{'vertices':>10} {'Mvert/s':>8} {'watertight':>10}")
     for mode_name in ("lcm", "merge"):

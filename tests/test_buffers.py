@@ -151,3 +151,19 @@ def test_unused_blocks_of_other_sizes_are_dropped_behind_one_in_use(monkeypatch)
     del bigger
     assert buffers.release() == 12 << 20
     assert kept.base is not None and buffers.retained_bytes() == 0
+
+
+def test_mesh_from_a_users_arrays_keeps_its_own_copy():
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    from cadpipe import Mesh
+
+    mesh = Mesh(vertices, faces, face_part=np.zeros(4, int), part_names=["a"])
+    volume = mesh.volume
+    assert vertices.flags.writeable and faces.flags.writeable      # the user's stay theirs
+    vertices *= 2.0
+    faces[0] = [0, 1, 2]
+    assert mesh.volume == pytest.approx(volume) == pytest.approx(1 / 6)
+    assert np.array_equal(mesh.vertices[1], [1, 0, 0]) and np.array_equal(mesh.faces[0], [0, 2, 1])
+    moved = mesh.transformed(np.diag([2.0, 1.0, 1.0, 1.0]))
+    assert moved.volume == pytest.approx(2 / 6)

@@ -97,6 +97,14 @@ def _frozen(arr, dtype):
     return arr
 
 
+def _private(arr, given):
+    """``arr`` (made from the argument ``given``), copied where the caller could still
+    write to it: a mesh must not change when its maker's array does, nor freeze that array."""
+    if isinstance(given, np.ndarray) and given.flags.writeable and np.may_share_memory(arr, given):
+        return arr.copy()
+    return arr
+
+
 class Mesh:
     """A triangle mesh: ``(V, 3)`` float64 vertices and ``(F, 3)`` int64 faces.
 
@@ -119,6 +127,7 @@ class Mesh:
 
     def __init__(self, vertices: ArrayLike, faces: ArrayLike, *, face_part: ArrayLike | None = None,
                  part_names: Sequence[str] = (), attributes: Mapping[str, Any] | None = None):
+        given_vertices, given_faces = vertices, faces
         vertices = as_points(vertices, "vertices", min_count=0)
         faces = np.asarray(faces)
         if faces.size == 0:
@@ -129,20 +138,20 @@ class Mesh:
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
             raise InputError(f"indices must lie in [0, {len(vertices) - 1}], "
                              f"got [{faces.min()}, {faces.max()}]", key="faces")
-        self._vertices = _frozen(vertices, np.float64)
-        self._faces = _frozen(faces, np.int64)
+        self._vertices = _frozen(_private(vertices, given_vertices), np.float64)
+        self._faces = _frozen(_private(faces, given_faces), np.int64)
         self._part_names = tuple(str(n) for n in part_names)
         if face_part is None:
             self._face_part = None
         else:
-            face_part = np.asarray(face_part)
+            given_face_part, face_part = face_part, np.asarray(face_part)
             if face_part.shape != (len(faces),):
                 raise InputError(f"expected {len(faces)} part indices, "
                                  f"got shape {face_part.shape}", key="face_part")
             names = len(self._part_names)
             if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
                 raise InputError("indices must point into part_names", key="face_part")
-            self._face_part = _frozen(face_part, np.int32)
+            self._face_part = _frozen(_private(face_part, given_face_part), np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
     @classmethod
@@ -464,6 +473,7 @@ class Mesh:
         matrix = as_matrix(matrix)
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
+        vertices.flags.writeable = False          # ours alone: checked, not copied
         return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
                     attributes=self._attributes)
 
@@ -488,9 +498,9 @@ class Mesh:
         names, rows = merge_tables([m.part_names or (f"part{i}",) for i, m in enumerate(meshes)])
         face_parts = [r[m.face_part if m.face_part is not None else np.zeros(len(m.faces), int)]
                       for m, r in zip(meshes, rows)]
-        return Mesh(np.concatenate([m.vertices for m in meshes]),
-                    np.concatenate([m.faces + o for m, o in zip(meshes, offsets)]),
-                    face_part=np.concatenate(face_parts), part_names=names)
+        return Mesh.trusted(np.concatenate([m.vertices for m in meshes]),
+                            np.concatenate([m.faces + o for m, o in zip(meshes, offsets)]),
+                            face_part=np.concatenate(face_parts), part_names=names)
 
     # -- other libraries --------------------------------------------------------
     def to_trimesh(self) -> Any:
