@@ -78,3 +78,16 @@ def test_demo_command_prints_a_summary(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "COLLISION  tool <-> workpiece" in out
     assert "wrote 9 files" in out
+
+
+@pytest.mark.slow
+def test_the_whole_cell_as_one_solid_survives_every_file(tmp_path):
+    # it had one non-manifold edge after reading back: a pinch point of two arm links
+    from cadpipe.solids.validity import check_mesh
+
+    cell = demo.build_cell()
+    for suffix in ("stl", "3mf", "glb"):
+        reread = cadpipe.Mesh.load(cell.assembly.export(tmp_path / f"cell.{suffix}", "solid"))
+        report = check_mesh(reread)
+        assert report["valid"], (suffix, report["problems"])
+        assert report["nonmanifold_edges"] == 0

@@ -164,6 +164,7 @@ def atomic_path(path):
         raise ExportError(f"{path}: cannot write there ({exc.strerror}); "
                           "choose a writable folder") from None
     fcntl.flock(fd, fcntl.LOCK_EX)            # ours until written: not stale
+    _WRITING.add(tmp)
     try:
         _remove_stale(path)
         yield FilePath(tmp)
@@ -172,9 +173,24 @@ def atomic_path(path):
     except OSError as exc:
         raise ExportError(f"{path}: writing failed ({exc}); nothing was written") from None
     finally:
+        _WRITING.discard(tmp)
         if os.path.exists(tmp):
             os.unlink(tmp)
         os.close(fd)
+
+
+#: temporary files of the writes under way in this process
+_WRITING = set()
+
+
+def abandon_writes():
+    """Remove the temporary files of the writes under way: a process interrupted while a
+    writer thread is inside a long call, about to exit, leaves no partial file."""
+    for tmp in list(_WRITING):
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
 
 
 #: unit a file without one is read in, as the programs that use it read it
