@@ -329,10 +329,12 @@ class Assembly:
                 groups = len(booleans)
                 progress(f"union of {members} solids in {groups} group{'s' * (groups != 1)}",
                          k, groups)
-            solids.append(combine_cluster(
+            solid = combine_cluster(
                 [adds[i].solid for i in index],
                 [c.solid if isinstance(c, _Shape) else c for c in (cuts[j] for j in reach)],
-                clips))
+                clips)
+            solid.num_tri()                       # manifold3d is lazy: work now, counted
+            solids.append(solid)
         if solids:
             import manifold3d
 
