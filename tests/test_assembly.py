@@ -249,3 +249,26 @@ def test_pinched_copies_move_apart_by_little_into_their_own_fans():
     assert again is solid                              # nothing left to move
     moved = np.linalg.norm(solid.vertices - np.round(solid.vertices * 2) / 2, axis=1)
     assert moved.max() < 1e-5                          # within a few float32 steps
+
+
+@pytest.mark.slow
+def test_a_union_of_many_crossing_pipes_has_no_degenerate_face_in_any_file(tmp_path):
+    # the 1,000-pipe union once held two faces of zero area; trimesh is the reference
+    import trimesh
+
+    rng = np.random.default_rng(7)
+    asm = Assembly()
+    while len(asm.parts) < 150:
+        start = rng.uniform(0.1, 0.9, 3)
+        steps = rng.normal(size=(3, 3))
+        steps *= 0.15 / np.linalg.norm(steps, axis=1, keepdims=True)
+        path = np.clip(np.vstack([start, start + np.cumsum(steps, axis=0)]), 0.0, 1.0)
+        try:
+            asm.add(f"pipe{len(asm.parts)}", Pipe(path, 0.01, 12).mesh())
+        except cadpipe.CadpipeError:
+            continue
+    solid = asm.union()
+    for mesh in (solid, cadpipe.Mesh.load(asm.export(tmp_path / "u.stl", units="m"))):
+        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+        assert tm.nondegenerate_faces(height=1e-12).all()
+        assert tm.is_watertight and tm.is_winding_consistent

@@ -2,18 +2,19 @@
 
 Everything that can be checked before writing is: the spec, every part, the
 boolean, every output's format and options. Only then are files written, each
-atomically. Progress names the stage running (meshing the parts, the union of
-each group of overlapping solids, each file) with counts: a bar on stderr when
-it is a terminal, else one plain line per stage on stdout (so an error stays the
-one line on stderr).
+atomically. Progress names the stage running (reading the spec, meshing the
+parts, the union of each group of overlapping solids, each file, the summary)
+with counts: a bar on stderr when it is a terminal, else one plain line per
+stage on stdout (so an error stays the one line on stderr).
 
 Ctrl-C stops at once at any point. manifold3d holds the interpreter while it
 works (seconds to minutes for a large union), so no Python handler could run:
-while the solid is computed, before any file is open, SIGINT keeps the system's
-default and ends the process (the shell reports 130). While files are written,
-each writer runs in a worker thread and the main thread waits for it, so an
-interrupt is seen within a tenth of a second: the unfinished temporary file is
-removed and the command exits 130 (files already written stay whole).
+while the spec is read and the solid computed (and summed up), with no file
+open, SIGINT keeps the system's default and ends the process (the shell reports
+130). While files are written, each writer runs in a worker thread and the main
+thread waits for it, so an interrupt is seen within a tenth of a second: the
+unfinished temporary file is removed and the command exits 130 (files already
+written stay whole).
 """
 
 import os
@@ -52,11 +53,54 @@ def _arguments(parser):
 def build(args):
     from rich.console import Console
 
-    from cadpipe.io.files import check_target, ensure_folder, exporters, suffix_of
+    from cadpipe.io.files import ensure_folder
     from cadpipe.io.spec import read
+
+    with _Stages(args.quiet) as stage:
+        stage(f"reading {FilePath(args.spec).name}", 0, 1)
+        with _ended_by_interrupt():
+            spec = read(args.spec)
+        outputs = _outputs(args, spec)
+        assembly = spec.assembly
+        try:
+            with limits.using(**spec.budgets), _ended_by_interrupt():
+                solid = assembly.union(progress=stage)
+        except CadpipeError as exc:           # at the part's key, as reading errors are
+            raise spec.locate(exc) from exc.__cause__
+        for k, (path, mode, options) in enumerate(outputs):
+            stage(f"writing {path.name}", k, len(outputs))
+            ensure_folder(path.parent)
+            _in_worker(assembly.export, path, mode, **options)
+        stage(f"summing up {len(solid.faces):,} triangles", 0, 1)
+        with _ended_by_interrupt():
+            summary = _summary(assembly, solid)
+    report = Console(quiet=args.quiet, soft_wrap=True, highlight=False, markup=False)
+    report.print(summary)
+    for path, _, _ in outputs:
+        report.print(f"wrote {path}")
+
+
+#: above this many triangles the summary leaves out bodies and watertightness: their
+#: edge tables take about 200 bytes a triangle (13 GB for a 2M-point pipe)
+SUMMARY_TOPOLOGY_TRIANGLES = 20_000_000
+
+
+def _summary(assembly, solid):
+    """The line printed at the end: parts, triangles, bodies, volume, watertightness."""
+    head = f"{assembly.name}: {len(assembly.parts)} parts, {len(solid.faces)} triangles"
+    volume = f"volume {solid.volume:.6g} {assembly.units}^3"
+    if len(solid.faces) > SUMMARY_TOPOLOGY_TRIANGLES:
+        return (f"{head}, {volume}; bodies and watertightness not measured above "
+                f"{SUMMARY_TOPOLOGY_TRIANGLES:,} triangles (cadpipe check FILE measures them)")
+    return f"{head}, {solid.n_bodies} bodies, {volume}, watertight={solid.is_watertight}"
+
+
+def _outputs(args, spec):
+    """``(path, mode, options)`` of each file to write: ``-o`` or the spec's outputs, their
+    formats and options checked before any work, the command line's over the spec's."""
+    from cadpipe.io.files import check_target, exporters, suffix_of
     from cadpipe.solids.assembly import export_options
 
-    spec = read(args.spec)
     given = {k: v for k, v in (("layout", args.layout), ("units", args.units)) if v}
     outputs = [(FilePath(o), args.mode, {}) for o in args.output] or \
         [(path, args.mode or mode, options) for path, mode, options in spec.outputs]
@@ -68,26 +112,8 @@ def build(args):
             raise InputError("unknown output format; supported: "
                              f"{', '.join('.' + n for n in exporters.names())}", file=path)
         check_target(path)
-    outputs = [(path, mode, export_options(path, {**options, **given}))
-               for path, mode, options in outputs]
-
-    assembly = spec.assembly
-    report = Console(quiet=args.quiet, soft_wrap=True, highlight=False, markup=False)
-    with _Stages(args.quiet) as stage:
-        try:
-            with limits.using(**spec.budgets), _ended_by_interrupt():
-                solid = assembly.union(progress=stage)
-        except CadpipeError as exc:           # at the part's key, as reading errors are
-            raise spec.locate(exc) from exc.__cause__
-        for k, (path, mode, options) in enumerate(outputs):
-            stage(f"writing {path.name}", k, len(outputs))
-            ensure_folder(path.parent)
-            _in_worker(assembly.export, path, mode, **options)
-    report.print(f"{assembly.name}: {len(assembly.parts)} parts, {len(solid.faces)} triangles, "
-                  f"{solid.n_bodies} bodies, volume {solid.volume:.6g} {assembly.units}^3, "
-                  f"watertight={solid.is_watertight}")
-    for path, _, _ in outputs:
-        report.print(f"wrote {path}")
+    return [(path, mode, export_options(path, {**options, **given}))
+            for path, mode, options in outputs]
 
 
 @contextmanager
