@@ -163,27 +163,52 @@ def test_units_must_be_known():
 
 
 def test_parts_whose_boxes_overlap_nothing_skip_boolean_work(monkeypatch):
-    real = manifold3d.Manifold.batch_boolean
-    sizes = []
+    real, to_manifold = manifold3d.Manifold.batch_boolean, cadpipe.Mesh.to_manifold
+    sizes, converted = [], []
 
     def spy(solids, op):
         sizes.append((len(solids), op))
         return real(solids, op)
 
+    def spy_convert(mesh, *args, **kwargs):
+        converted.append(len(mesh.faces))
+        return to_manifold(mesh, *args, **kwargs)
+
     monkeypatch.setattr(manifold3d.Manifold, "batch_boolean", staticmethod(spy))
+    monkeypatch.setattr(cadpipe.Mesh, "to_manifold", spy_convert)
     unit = primitives.box(1.0)
     asm = Assembly()
     for k in range(5):                                   # five cubes in a row, 1 apart
         asm.add(f"cube{k}", cadpipe.Mesh(unit.vertices + [2.0 * k, 0, 0], unit.faces))
-    asm.add("a", through_centre((1, 0, 0), 0.1).mesh(), transform=placement(translate=(0, 5, 0)))
-    asm.add("b", through_centre((0, 1, 0), 0.1).mesh(), transform=placement(translate=(0, 5, 0)))
+    a, b = through_centre((1, 0, 0), 0.1).mesh(), through_centre((0, 1, 0), 0.1).mesh()
+    asm.add("a", a, transform=placement(translate=(0, 5, 0)))
+    asm.add("b", b, transform=placement(translate=(0, 5, 0)))
     solid = asm.union()
     assert solid.n_bodies == 6
-    # one real union (the two crossing pipes); singletons pass through untouched
-    unions = [n for n, op in sizes if op == manifold3d.OpType.Add and n > 1]
-    assert unions[:-1] == [2] and unions[-1] == 6        # the last call composes the pieces
+    # one real union (the two crossing pipes); the cubes never reach manifold3d
+    assert [n for n, op in sizes] == [2]
+    assert sorted(converted) == sorted([len(a.faces), len(b.faces)])
     per_cube = np.bincount(solid.face_part)[:5]
     assert per_cube.tolist() == [len(unit.faces)] * 5    # the cubes' triangles are unchanged
+    assert solid.part_names == ("cube0", "cube1", "cube2", "cube3", "cube4", "a", "b")
+
+
+def test_a_single_pipe_is_its_own_mesh_with_no_manifold3d_round_trip(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("a single part went through manifold3d")
+
+    monkeypatch.setattr(cadpipe.Mesh, "to_manifold", refuse)
+    pipe = Pipe(cadpipe.Path.spline([[0, 0, 0], [1, 0, 0.3], [2, 1, 0]], step=0.01), 0.05, 16)
+    asm = Assembly().add("only", pipe, transform=placement(translate=(1, 2, 3)))
+    solid = asm.union()
+    mesh = pipe.mesh()
+    np.testing.assert_array_equal(solid.faces, mesh.faces)
+    np.testing.assert_allclose(solid.vertices, mesh.vertices + [1, 2, 3])
+    assert solid.part_names == ("only",) and (solid.face_part == 0).all()
+    from cadpipe.solids.validity import check_mesh
+    assert check_mesh(solid)["valid"]
+    part = asm.to_scene("parts").parts[0].mesh          # in its own frame, as made
+    np.testing.assert_array_equal(part.vertices, mesh.vertices)
 
 
 def test_subtracting_an_equal_solid_leaves_nothing_not_a_sliver():
@@ -195,3 +220,55 @@ def test_subtracting_an_equal_solid_leaves_nothing_not_a_sliver():
     asm.subtract("cross", cadpipe.Pipe([[0, 0, 0], [0, 0, 1]], 0.0625, sides=3))
     with pytest.raises(cadpipe.GeometryError, match="nothing is left"):
         asm.union()
+
+
+@pytest.mark.parametrize("suffix", ["stl", "3mf", "glb", "obj", "ply"])
+def test_solids_touching_along_an_edge_stay_manifold_in_every_file(tmp_path, suffix):
+    # manifold3d keeps the two copies of the shared edge apart by index only; a file of
+    # float32 coordinates would weld them into an edge of four faces
+    from cadpipe.solids.validity import check_mesh
+
+    asm = Assembly().add("a", primitives.box(1.0)).add(
+        "b", primitives.box(1.0), transform=placement(translate=(1, 1, 0)))
+    solid = asm.union()
+    reread = cadpipe.Mesh.load(asm.export(tmp_path / f"touch.{suffix}", "solid"))
+    report = check_mesh(reread)
+    assert report["valid"], report["problems"]
+    assert reread.n_bodies == 2 and solid.volume == pytest.approx(2.0, rel=1e-5)
+
+
+def test_pinched_copies_move_apart_by_little_into_their_own_fans():
+    from cadpipe.solids.booleans import separated_pinches
+
+    asm = Assembly().add("a", primitives.box(1.0)).add(
+        "b", primitives.box(1.0), transform=placement(translate=(1, 1, 1)))   # a corner
+    solid = asm.union()
+    keys = np.unique(solid.vertices.astype(np.float32), axis=0)
+    assert len(keys) == len(solid.vertices)            # no two vertices one in float32
+    again = separated_pinches(solid, 1e-6)
+    assert again is solid                              # nothing left to move
+    moved = np.linalg.norm(solid.vertices - np.round(solid.vertices * 2) / 2, axis=1)
+    assert moved.max() < 1e-5                          # within a few float32 steps
+
+
+@pytest.mark.slow
+def test_a_union_of_many_crossing_pipes_has_no_degenerate_face_in_any_file(tmp_path):
+    # the 1,000-pipe union once held two faces of zero area; trimesh is the reference
+    import trimesh
+
+    rng = np.random.default_rng(7)
+    asm = Assembly()
+    while len(asm.parts) < 150:
+        start = rng.uniform(0.1, 0.9, 3)
+        steps = rng.normal(size=(3, 3))
+        steps *= 0.15 / np.linalg.norm(steps, axis=1, keepdims=True)
+        path = np.clip(np.vstack([start, start + np.cumsum(steps, axis=0)]), 0.0, 1.0)
+        try:
+            asm.add(f"pipe{len(asm.parts)}", Pipe(path, 0.01, 12).mesh())
+        except cadpipe.CadpipeError:
+            continue
+    solid = asm.union()
+    for mesh in (solid, cadpipe.Mesh.load(asm.export(tmp_path / "u.stl", units="m"))):
+        tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+        assert tm.nondegenerate_faces(height=1e-12).all()
+        assert tm.is_watertight and tm.is_winding_consistent

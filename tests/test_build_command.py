@@ -87,3 +87,106 @@ def test_bad_usage_exits_2(argv):
     with pytest.raises(SystemExit) as exit_:
         main(argv)
     assert exit_.value.code == 2
+
+
+TWO_CROSSING = """
+    name = "cross"
+    [[parts]]
+    kind = "pipe"
+    path = [[0, 0, 0], [1, 0, 0]]
+    radius = 0.1
+    [[parts]]
+    kind = "pipe"
+    path = [[0.5, -0.5, 0], [0.5, 0.5, 0]]
+    radius = 0.1
+    [[parts]]
+    kind = "box"
+    size = 0.2
+    transform = { translate = [5, 0, 0] }
+    """
+
+
+def test_plain_progress_is_one_line_per_stage_with_counts(tmp_path, capsys):
+    path = spec(tmp_path, TWO_CROSSING)
+    assert main(["build", str(path), "-o", str(tmp_path / "a.stl"),
+                 "-o", str(tmp_path / "b.glb")]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines()
+             if line.startswith("cadpipe build: ")]
+    assert lines == ["cadpipe build: reading cell.toml", "cadpipe build: meshing 3 parts",
+                     "cadpipe build: union of 2 solids in 1 group",   # the box overlaps nothing
+                     "cadpipe build: writing a.stl (1/2)",
+                     "cadpipe build: writing b.glb (2/2)",
+                     "cadpipe build: summing up "
+                     f"{len(cadpipe.load(path).union().faces):,} triangles"]
+
+
+def test_spec_outputs_reach_every_export_option(tmp_path, capsys):
+    path = spec(tmp_path, TWO_CROSSING + """
+    [[outputs]]
+    file = "plate.stl"
+    layout = "print"
+    units = "m"
+    [[outputs]]
+    file = "text.stl"
+    ascii = true
+    [[outputs]]
+    file = "scene.stl"
+    """)
+    assert main(["build", str(path), "--quiet"]) == 0
+    asm = cadpipe.load(path)
+    reference = asm.export(tmp_path / "reference.stl", layout="print", units="m")
+    assert (tmp_path / "plate.stl").read_bytes() == reference.read_bytes()
+    plate = cadpipe.Mesh.load(tmp_path / "plate.stl")
+    assert plate.bounds[0][2] == pytest.approx(0.0, abs=1e-9)    # on the bed (read as mm)
+    assert (tmp_path / "text.stl").read_bytes().startswith(b"solid")
+    scene = cadpipe.Mesh.load(tmp_path / "scene.stl")
+    assert scene.bounds[0][2] == pytest.approx(-100.0, rel=1e-6)  # where it sits, in mm
+    # the command line's options win over the spec's
+    assert main(["build", str(path), "--quiet", "--layout", "scene", "--units", "mm"]) == 0
+    assert cadpipe.Mesh.load(tmp_path / "plate.stl").bounds[0][2] == pytest.approx(-100.0,
+                                                                                  rel=1e-6)
+
+
+@pytest.mark.parametrize("table, key", [
+    ('file = "x.stl"\n    crease_angle = 30', "outputs[0].crease_angle"),
+    ('file = "x.stl"\n    ascii = "yes"', "outputs[0].ascii"),
+    ('file = "x.stl"\n    layout = "plate"', "outputs[0].layout"),
+    ('file = "x.glb"\n    units = "furlong"', "outputs[0].units"),
+])
+def test_bad_output_options_name_their_key_and_write_nothing(tmp_path, capsys, table, key):
+    path = spec(tmp_path, TWO_CROSSING + "\n    [[outputs]]\n    " + table + "\n")
+    before = files(tmp_path)
+    assert main(["build", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert f"cell.toml: {key}: " in err and err.count("\n") == 1
+    assert files(tmp_path) == before
+
+
+def test_overlapping_shells_of_an_imported_stl_are_unioned(tmp_path, capsys):
+    from cadpipe import primitives
+    from cadpipe.solids.validity import check_mesh
+
+    cube = primitives.box(1.0)
+    two = cadpipe.Mesh.concatenate([cube, cadpipe.Mesh(cube.vertices + 0.5, cube.faces)])
+    two.export(tmp_path / "two.stl", units="m")
+    assert not check_mesh(cadpipe.Mesh.load(tmp_path / "two.stl"))["valid"]   # as given
+    path = spec(tmp_path, 'name = "imp"\n[[parts]]\nkind = "mesh"\nfile = "two.stl"\n')
+    assert main(["build", str(path), "-o", str(tmp_path / "out.stl"), "--units", "mm"]) == 0
+    assert "watertight=True" in capsys.readouterr().out
+    out = cadpipe.Mesh.load(tmp_path / "out.stl")
+    report = check_mesh(out)
+    assert report["valid"], report["problems"]
+    # two unit cubes (1000 mm) overlapping in a 0.5-cube: 2 - 0.125 litres... of mm^3
+    assert out.volume == pytest.approx((2 - 0.125) * 1000.0 ** 3, rel=1e-6)
+    assert out.n_bodies == 1
+
+
+def test_the_summary_of_a_huge_solid_skips_the_topology_pass(tmp_path, capsys, monkeypatch):
+    from cadpipe.cli import build
+
+    monkeypatch.setattr(build, "SUMMARY_TOPOLOGY_TRIANGLES", 100)
+    path = spec(tmp_path, TWO_CROSSING)
+    assert main(["build", str(path), "-o", str(tmp_path / "a.stl")]) == 0
+    out = capsys.readouterr().out
+    assert "bodies and watertightness not measured above 100 triangles" in out
+    assert "watertight=" not in out

@@ -130,7 +130,7 @@ def test_toml_and_json_share_one_schema(tmp_path):
         transform = { translate = [2, 0, 0] }
         """)
     a, b = read(json_spec), read(toml_spec)
-    assert a.outputs == b.outputs == ((tmp_path / "out/x.stl", None),)
+    assert a.outputs == b.outputs == ((tmp_path / "out/x.stl", None, {}),)
     assert [p.name for p in a.assembly.parts] == ["ball", "box-1"]
     assert a.assembly.union().volume == pytest.approx(b.assembly.union().volume, rel=1e-12)
 

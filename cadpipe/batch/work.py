@@ -100,18 +100,18 @@ def build(job, folder):
     from cadpipe.io.spec import read
 
     spec = read(job.spec, data=job.table)
-    targets = [(name, None) for name in job.outputs] or \
-        [(path.name, mode) for path, mode in spec.outputs]
+    targets = [(name, None, {}) for name in job.outputs] or \
+        [(path.name, mode, options) for path, mode, options in spec.outputs]
     if not targets:
         raise InputError('nothing to write: the spec lists no outputs; give the job '
                          'outputs = ["part.stl"]', key="outputs")
-    names = [name for name, _ in targets]
+    names = [name for name, _, _ in targets]
     if len(set(names)) != len(names):
         raise InputError(f"two outputs are named {next(n for n in names if names.count(n) > 1)!r}"
                          " in the job's folder; rename one", key="outputs")
     solid = spec.assembly.union()
-    for name, mode in targets:
-        spec.assembly.export(folder / name, mode)
+    for name, mode, options in targets:
+        spec.assembly.export(folder / name, mode, **options)
     return {"verdict": "built", "files": _sizes(folder, names),
             "solid": {"parts": len(spec.assembly.parts), "triangles": len(solid.faces),
                       "bodies": solid.n_bodies, "volume": solid.volume,

@@ -91,6 +91,10 @@ def merge_tables(tables: Iterable[Sequence[Hashable]]) -> tuple[tuple, list[np.n
     return tuple(index), rows
 
 
+#: faces per step of :attr:`Mesh.volume`: 64M-face meshes summed in 72 MB pieces
+_VOLUME_CHUNK = 1 << 20
+
+
 def _frozen(arr, dtype):
     arr = np.ascontiguousarray(arr, dtype=dtype)
     arr.flags.writeable = False
@@ -281,8 +285,11 @@ class Mesh:
         """
         if len(self._faces) == 0:
             return 0.0
-        t = self.triangles - self._vertices.mean(axis=0)
-        return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
+        centre, total = self._vertices.mean(axis=0), 0.0
+        for start in range(0, len(self._faces), _VOLUME_CHUNK):   # no (F, 3, 3) copy
+            t = self._vertices[self._faces[start:start + _VOLUME_CHUNK]] - centre
+            total += float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])))
+        return total / 6.0
 
     @cached_property
     def bounds(self) -> np.ndarray:

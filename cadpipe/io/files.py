@@ -165,6 +165,7 @@ def atomic_path(path):
         raise ExportError(f"cannot write there ({exc.strerror}); "
                           "choose a writable folder", file=path) from None
     fcntl.flock(fd, fcntl.LOCK_EX)            # ours until written: not stale
+    _WRITING.add(tmp)
     try:
         _remove_stale(path)
         yield FilePath(tmp)
@@ -173,9 +174,24 @@ def atomic_path(path):
     except OSError as exc:
         raise ExportError(f"writing failed ({exc}); nothing was written", file=path) from None
     finally:
+        _WRITING.discard(tmp)
         if os.path.exists(tmp):
             os.unlink(tmp)
         os.close(fd)
+
+
+#: temporary files of the writes under way in this process
+_WRITING = set()
+
+
+def abandon_writes():
+    """Remove the temporary files of the writes under way: a process interrupted while a
+    writer thread is inside a long call, about to exit, leaves no partial file."""
+    for tmp in list(_WRITING):
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
 
 
 #: unit a file without one is read in, as the programs that use it read it

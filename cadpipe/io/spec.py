@@ -253,12 +253,15 @@ def _placement(ctx, *, kind: str, name: str | None = None, op: str = "add",
             "transform": _matrix(ctx, transform)}
 
 
-def _output(ctx, *, file: str, mode: str | None = None):
-    from cadpipe.solids.assembly import EXPORT_MODES
+def _output(ctx, *, file: str, mode: str | None = None, **options):
+    """An ``outputs`` entry: its file, mode and any option of :meth:`Assembly.export`
+    (``layout``, ``units``, the format's own; see :func:`export_options`)."""
+    from cadpipe.solids.assembly import EXPORT_MODES, export_options
 
     if mode is not None:
         as_choice(mode, "mode", EXPORT_MODES)
-    return ctx.output_path(file, "file"), mode
+    path = ctx.output_path(file, "file")
+    return path, mode, export_options(path, options)
 
 
 @dataclass(frozen=True)
@@ -296,9 +299,10 @@ class Cell:
 @dataclass(frozen=True)
 class Spec:
     """A read spec: its file, the assembly it describes (the parts, then the robot's
-    posed links), its outputs as ``(path, mode)`` pairs (mode None: chosen by the
-    suffix), its :class:`Cell`, the key path of each part by name, and the budgets
-    it sets (``max_triangles``, ... as :func:`cadpipe.limits.using` takes them)."""
+    posed links), its outputs as ``(path, mode, options)`` (mode None: chosen by the
+    suffix; options for :meth:`~cadpipe.Assembly.export`), its :class:`Cell`, the key
+    path of each part by name, and the budgets it sets (``max_triangles``, ... as
+    :func:`cadpipe.limits.using` takes them)."""
 
     file: FilePath
     assembly: object

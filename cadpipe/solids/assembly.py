@@ -11,13 +11,20 @@ pipes stay open where they meet other parts and their bores never plug each
 other. The order of calls does not matter. Every output triangle keeps the name of
 the part it came from (manifold3d's original ids), so exports can colour and name
 surfaces per part.
+
+Booleans run only where bounding boxes meet: a part that overlaps nothing (a
+single pipe) is never sent through manifold3d, its mesh goes into the result as
+it is (a cadpipe-built part as made, an imported mesh once checked to be one
+outward shell).
 """
 
 from __future__ import annotations
 
+import inspect
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 from types import MappingProxyType
 from typing import Any
 
@@ -26,10 +33,11 @@ from numpy.typing import ArrayLike
 
 from cadpipe import limits
 from cadpipe._validate import as_choice
-from cadpipe.solids.booleans import as_solid, combine, float32_step, is_void, reserve_ids, snap
+from cadpipe.solids.booleans import (as_solid, bounding_boxes, clusters, combine,
+                                     combine_cluster, exportable, reserve_ids, snap)
 from cadpipe.errors import CadpipeError, GeometryError, InputError
 from cadpipe.geometry.mesh import Mesh
-from cadpipe.io.scene import Scene, ScenePart, meters_per_unit, parse_color
+from cadpipe.io.scene import UNITS, Scene, ScenePart, meters_per_unit, parse_color
 from cadpipe.solids.transform import as_matrix
 
 OPERATIONS = ("add", "subtract", "intersect")
@@ -56,6 +64,59 @@ _PART_ARGUMENTS = """
 #: formats whose default export is the one unioned solid (printing); others get the parts
 SOLID_FORMATS = frozenset({"stl", "3mf", "obj", "ply", "off"})
 EXPORT_MODES = ("solid", "parts")
+
+
+def export_options(path: str | os.PathLike, options: dict[str, Any]) -> dict[str, Any]:
+    """``options`` checked for :meth:`Assembly.export` to ``path``, before any work.
+
+    The options are the keyword parameters of :func:`cadpipe.io.files.export`
+    (``layout``) and of the format's writer (``units``, ``ascii``, ...), read from
+    their signatures, so a spec's output table reaches every one of them.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file to write; its suffix names the format.
+    options : dict
+        Option name to value; a value has the type of the option's default (any
+        number for a number), ``units`` and ``layout`` one of their choices.
+
+    Returns
+    -------
+    options : dict
+        A copy of ``options``.
+
+    Raises
+    ------
+    InputError
+        With ``key`` the option at fault.
+    """
+    from cadpipe.io.files import LAYOUTS, export, suffix_of
+    from cadpipe.io.registry import exporters
+
+    suffix = suffix_of(path)
+    writer = exporters.get(suffix)
+    params = {n: p for func in (export, writer)
+              for n, p in inspect.signature(func).parameters.items()
+              if p.kind is p.KEYWORD_ONLY}
+    open_ended = any(p.kind is p.VAR_KEYWORD for p in inspect.signature(writer).parameters.values())
+    for name, value in options.items():
+        if name not in params:
+            if open_ended:
+                continue
+            raise InputError(f"'.{suffix}' files take no option {name!r}; they take "
+                             f"{', '.join(sorted(params))}", key=name)
+        default = params[name].default
+        if default is None or default is inspect.Parameter.empty:
+            continue
+        kinds = (int, float) if type(default) in (int, float) else (type(default),)
+        if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+            raise InputError(f"expected a value like {default!r}, got {value!r}", key=name)
+    if "units" in options:
+        as_choice(options["units"], "units", tuple(UNITS))
+    if "layout" in options:
+        as_choice(options["layout"], "layout", LAYOUTS)
+    return dict(options)
 
 
 @dataclass(frozen=True)
@@ -85,6 +146,37 @@ class Part:
     def attributes(self):
         """Read-only mapping of the parameters that made the part's object."""
         return MappingProxyType(dict(getattr(self.obj, "attributes", {})))
+
+
+@dataclass(frozen=True, eq=False)
+class _Shape:
+    """One closed mesh of a part, placed in the world, with the manifold3d id its
+    triangles carry. ``plain``: known to be one outward shell, so it needs
+    manifold3d only where it meets another solid."""
+
+    part: str
+    label: str
+    local: Mesh
+    world: Mesh
+    original: int
+    plain: bool
+
+    @cached_property
+    def box(self):
+        return self.world.bounds
+
+    @cached_property
+    def solid(self):
+        return as_solid(self.world, self.label, self.original)
+
+
+def _is_plain(obj, mesh):
+    """Whether ``mesh`` of part object ``obj`` can skip manifold3d when it meets nothing:
+    a cadpipe part made it (a pipe is a closed outward solid by construction), or it
+    is one closed, consistently wound, outward shell."""
+    if not isinstance(obj, Mesh) and type(obj).__module__.startswith("cadpipe."):
+        return True
+    return mesh.is_oriented and mesh.volume > 0 and mesh.n_bodies == 1
 
 
 class Assembly:
@@ -160,14 +252,18 @@ class Assembly:
 
     # -- combining ------------------------------------------------------------
     def _prepare(self, progress=None):
-        """Validate and place every part's solids and bores as manifold3d objects, once."""
+        """Validate and place every part's solids and bores, once; manifold3d objects are
+        made only for what a boolean needs (and to check what is not plain)."""
         if self._solids is not None:
             return
-        placed_parts, names = [], {}
         limits.check("max_triangles", sum(limits.estimated_triangles(p.obj)
                                           for p in self._parts.values()),
                      f"assembly {self.name!r}")
-        for part in self._parts.values():
+        placed_parts, names = [], {}
+        count = len(self._parts)
+        for k, part in enumerate(self._parts.values()):
+            if progress is not None:
+                progress(f"meshing {part.name}", k, count)
             try:
                 shapes = part.shapes()
             except CadpipeError as exc:       # e.g. a pipe that intersects itself
@@ -181,39 +277,96 @@ class Assembly:
                     names[original] = part.name
                     label = part.name if len(meshes) == 1 and kind == "solid" else \
                         f"{part.name} ({kind} {i})"
-                    solid = as_solid(mesh, label, original)
-                    group.append(solid if part.transform is None else
-                                 solid.transform(part.transform[:3]))
+                    world = mesh if part.transform is None else mesh.transformed(part.transform)
+                    shape = _Shape(part.name, label, mesh, world, original,
+                                   _is_plain(part.obj, mesh))
+                    if not shape.plain:
+                        _ = shape.solid           # checked now: the error names the part
+                    group.append(shape)
                 placed.append(group)
             placed_parts.append(tuple(placed))
-            if progress is not None:
-                progress(part.name)
+        if progress is not None:
+            progress("meshing done", count, count)
         self._solids, self._names = placed_parts, names
         self._operands = self._collect()
 
     def _collect(self):
-        """``(adds, cuts, clips)``: every added solid; every bore and subtracted part; every
-        intersected part (hollow ones as their own outer-minus-bore solid)."""
-        import manifold3d
-
+        """``(adds, cuts, clips)``: every added shape and every bore and subtracted part
+        (shapes); every intersected part (hollow ones as their own outer-minus-bore
+        solid, a manifold3d object)."""
         adds, cuts, clips = [], [], []
         for part, (solids, bores) in zip(self._parts.values(), self._solids):
             if part.op == "add":
                 adds += solids
                 cuts += bores
+            elif part.op == "subtract" and not bores:
+                cuts += solids
             else:
-                whole = combine(solids, bores) if bores else \
-                    manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+                whole = combine([s.solid for s in solids], [b.solid for b in bores])
                 (cuts if part.op == "subtract" else clips).append(whole)
         return adds, cuts, clips
 
-    def union(self, progress: Callable[[str], object] | None = None) -> Mesh:
+    def _combined(self, adds, progress=None):
+        """``[(shape or None, mesh), ...]``: the pieces of ``(union of adds - every cut) &
+        every clip``. A shape no other solid's box reaches is its own world mesh,
+        untouched (shape given); the rest is one boolean result (shape None)."""
+        _, cuts, clips = self._operands
+        cut_boxes = np.array([c.box if isinstance(c, _Shape) else c.bounding_box()
+                              for c in cuts], np.float64).reshape(-1, 2, 3)
+        work = clusters(np.array([a.box for a in adds]).reshape(-1, 2, 3), cut_boxes,
+                        bounding_boxes(clips))
+        pieces, booleans = [], []
+        for index, reach in work:
+            shape = adds[index[0]]
+            if len(index) == 1 and not len(reach) and not clips and shape.plain:
+                pieces.append((shape, shape.world))
+            else:
+                booleans.append((index, reach))
+        solids = []
+        for k, (index, reach) in enumerate(booleans):
+            if progress is not None:
+                members = sum(len(i) for i, _ in booleans)
+                groups = len(booleans)
+                progress(f"union of {members} solids in {groups} group{'s' * (groups != 1)}",
+                         k, groups)
+            solid = combine_cluster(
+                [adds[i].solid for i in index],
+                [c.solid if isinstance(c, _Shape) else c for c in (cuts[j] for j in reach)],
+                clips)
+            solid.num_tri()                       # manifold3d is lazy: work now, counted
+            solids.append(solid)
+        if solids:
+            import manifold3d
+
+            solid = solids[0] if len(solids) == 1 else \
+                manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+            reference = sum(adds[i].world.volume for index, _ in booleans for i in index)
+            if not solid.is_empty() and solid.volume() > 1e-9 * reference:
+                pieces.append((None, exportable(solid, part_of_id=self._names)))
+        return pieces
+
+    def _labelled(self, pieces, attributes):
+        """One :class:`Mesh` of ``pieces``, faces labelled with part names in part order."""
+        meshes = [m if shape is None else
+                  Mesh.trusted(m.vertices, m.faces, face_part=np.zeros(len(m.faces), np.int32),
+                               part_names=(shape.part,))
+                  for shape, m in pieces]
+        mesh = meshes[0] if len(meshes) == 1 else Mesh.concatenate(meshes)
+        order = [p for p in self._parts if p in mesh.part_names]
+        rank = np.array([order.index(n) for n in mesh.part_names], np.int32)
+        return Mesh.trusted(mesh.vertices, mesh.faces, face_part=rank[mesh.face_part],
+                            part_names=order, attributes=attributes)
+
+    def union(self, progress: Callable[[str, int, int], object] | None = None) -> Mesh:
         """Combine every part into one watertight :class:`Mesh` (computed once, then cached).
 
         Parameters
         ----------
         progress : callable, optional
-            Called with a short label after each part is prepared and after the boolean.
+            ``progress(stage, done, total)`` as each stage starts: ``"meshing <part>"``
+            (parts done so far of all), ``"meshing done"``, ``"union of <n> solids in
+            <k> groups"`` (groups of overlapping boxes done so far; none when no
+            boxes overlap), so a display can name the stage running.
 
         Returns
         -------
@@ -232,18 +385,12 @@ class Assembly:
                 raise InputError(f"assembly {self.name!r}: add at least one part before "
                                  "combining it")
             self._prepare(progress)
-            solid = combine(*self._operands)
-            # edges shorter than float32 can tell apart would weld into non-manifold
-            # ones in every file written: collapse them (vertices move less than that)
-            solid = solid.simplify(float32_step(solid.bounding_box()))
-            if is_void(solid, self._operands[0]):
+            pieces = self._combined(self._operands[0], progress)
+            if not pieces:
                 raise GeometryError(f"assembly {self.name!r}: nothing is left after the "
                                     "subtractions and intersections")
-            self._union = Mesh.from_manifold(solid, part_of_id=self._names,
-                                             attributes={"kind": "assembly", "name": self.name,
-                                                         "units": self.units})
-            if progress is not None:
-                progress("boolean")
+            self._union = self._labelled(pieces, {"kind": "assembly", "name": self.name,
+                                                  "units": self.units})
         return self._union
 
     def mesh(self) -> Mesh:
@@ -263,11 +410,15 @@ class Assembly:
         applied to it (only those whose boxes reach it); other added parts are not
         merged in.
         """
-        _, cuts, clips = self._operands
-        solid = combine(list(solids), cuts, clips)
-        if part.transform is not None:
-            solid = solid.transform(np.linalg.inv(part.transform)[:3])
-        return Mesh.from_manifold(solid, part_of_id=self._names, attributes=part.attributes)
+        pieces = self._combined(list(solids))
+        if not pieces:
+            return Mesh(np.empty((0, 3)), np.empty((0, 3), np.int64))
+        if all(shape is not None for shape, _ in pieces):     # untouched: as it was made
+            pieces = [(shape, shape.local) for shape, _ in pieces]
+            return self._labelled(pieces, part.attributes)
+        mesh = self._labelled(pieces, part.attributes)
+        return mesh if part.transform is None else \
+            mesh.transformed(np.linalg.inv(part.transform))
 
     def to_scene(self, mode: str = "parts") -> Scene:
         """A :class:`~cadpipe.io.scene.Scene` for exporters.
@@ -311,7 +462,8 @@ class Assembly:
             printing formats (STL, 3MF, OBJ, PLY, OFF) and "parts" for scene formats
             (USD, GLB, ...).
         **options
-            Format options (see :mod:`cadpipe.io.files`).
+            ``layout`` and the format's options (see :mod:`cadpipe.io.files` and
+            :func:`export_options`).
 
         Returns
         -------

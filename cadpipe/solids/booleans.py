@@ -5,11 +5,14 @@ volume) and welds only nearly identical vertices. So every input goes through
 :func:`as_solid`, which builds the manifold3d solid tagged with its own original
 id (so each output triangle still knows its part) and checks what manifold3d
 does not: a status, a positive volume, and shells that are either bodies or
-voids inside a body. Meshes from files are welded first with :func:`snap`.
+voids inside a body. Shells of one mesh that overlap (an STL of two crossing
+boxes) are unioned, as a slicer reads them. Meshes from files are welded first
+with :func:`snap`.
 
 :func:`combine` computes ``(union of adds - union of cuts) & every clip`` with
-manifold3d's batch operations, and only where bounding boxes meet: parts that
-overlap nothing are never sent through a boolean.
+manifold3d's batch operations, and only where bounding boxes meet
+(:func:`clusters`): parts that overlap nothing are never sent through a boolean.
+:func:`exportable` makes a boolean result survive files of float32 coordinates.
 """
 
 import numpy as np
@@ -62,6 +65,7 @@ def reserve_ids(count):
 def as_solid(mesh, name, original_id):
     """A validated :class:`manifold3d.Manifold` of ``mesh`` whose triangles carry ``original_id``.
 
+    Shells of ``mesh`` that overlap are unioned (their voids cut from the union).
     Raises :class:`MeshError` naming ``name`` when manifold3d rejects the mesh, when
     it encloses no volume or is inside out, or when one of its shells is inside out
     without being a void inside another shell.
@@ -72,30 +76,34 @@ def as_solid(mesh, name, original_id):
     volume = solid.volume()
     if volume <= 0:
         raise MeshError(f"inside out (volume {volume:.6g}); flip its faces", part=name)
-    _check_shells(solid, name)
-    return solid
+    return _united_shells(solid, name, original_id)
 
 
-def _check_shells(solid, name):
-    """Every inside-out shell must be a void: wholly inside the outward shells."""
+def _united_shells(solid, name, original_id):
+    """``solid`` with overlapping shells unioned; every inside-out shell must be a void,
+    wholly inside the outward shells, and is cut from them."""
     import manifold3d
 
+    Manifold, Op = manifold3d.Manifold, manifold3d.OpType
     shells = solid.decompose()
     if len(shells) == 1:
-        return
+        return solid
     volumes = np.array([s.volume() for s in shells])
-    voids = np.flatnonzero(volumes < 0)
-    if not len(voids):
-        return
-    body = manifold3d.Manifold.batch_boolean([shells[i] for i in np.flatnonzero(volumes > 0)],
-                                             manifold3d.OpType.Add)
-    for i in voids:
-        shell = Mesh.from_manifold(shells[i])
+    boxes = bounding_boxes(shells)
+    i, j = overlap_pairs(boxes, boxes)
+    if not np.any(i != j) and (volumes > 0).all():
+        return solid                        # apart: bodies side by side
+    body = Manifold.batch_boolean([shells[k] for k in np.flatnonzero(volumes > 0)], Op.Add)
+    cavities = []
+    for k in np.flatnonzero(volumes < 0):
+        shell = Mesh.from_manifold(shells[k])
         cavity = Mesh.trusted(shell.vertices, shell.faces[:, ::-1]).to_manifold(
-            f"{name} shell {i}")
+            f"{name} shell {k}", original_id)
         if (cavity - body).volume() > 1e-9 * cavity.volume():
-            raise MeshError(f"shell {i} of {len(shells)} is inside out and not a void "
+            raise MeshError(f"shell {k} of {len(shells)} is inside out and not a void "
                             "inside another shell; flip its faces", part=name)
+        cavities.append(cavity)
+    return Manifold.batch_boolean([body, *cavities], Op.Subtract) if cavities else body
 
 
 def bounding_boxes(solids):
@@ -128,40 +136,68 @@ def _groups(boxes):
     return connected_labels(len(boxes), *overlap_pairs(boxes, boxes))
 
 
-def combine(adds, cuts=(), clips=()):
-    """``(union of adds - union of cuts) & every clip`` as one :class:`manifold3d.Manifold`.
+def clusters(adds, cuts=None, clips=None):
+    """The boolean work that bounding boxes leave: ``[(members, reach), ...]``.
 
-    Adds are clustered by bounding-box overlap. A cluster of one needs no union, a
-    cluster no cut reaches needs no difference, and the clusters, being disjoint,
-    are composed at the end without boolean work. Each cluster's union, difference
-    and intersection is one ``batch_boolean`` call.
+    Parameters
+    ----------
+    adds, cuts, clips : (N, 2, 3) float
+        Minimum and maximum corners of the added, cut and clipping solids.
+
+    Returns
+    -------
+    clusters : list of ((K,) int, (L,) int)
+        Per cluster of added solids linked by overlapping boxes, its members and the
+        cuts whose boxes reach one of them. Clusters outside some clip's box (nothing
+        of them is kept) are left out.
     """
-    import manifold3d
-
-    Manifold, Op = manifold3d.Manifold, manifold3d.OpType
-    if not adds:
-        return Manifold()
-    boxes = bounding_boxes(adds)
-    group = _groups(boxes)
-    add_i, cut_j = overlap_pairs(boxes, bounding_boxes(cuts))
-    clip_boxes = bounding_boxes(clips)
+    empty = np.empty((0, 2, 3))
+    cuts = empty if cuts is None else cuts
+    clips = empty if clips is None else clips
+    if not len(adds):
+        return []
+    group = _groups(adds)
+    add_i, cut_j = overlap_pairs(adds, cuts)
     members = np.split(np.argsort(group, kind="stable"), np.cumsum(np.bincount(group))[:-1])
     cuts_of = np.split(cut_j[np.argsort(group[add_i], kind="stable")],
                        np.cumsum(np.bincount(group[add_i], minlength=len(members)))[:-1])
-    pieces = []
+    work = []
     for index, reach in zip(members, cuts_of):
-        box = np.array([boxes[index, 0].min(axis=0), boxes[index, 1].max(axis=0)])
-        if len(clips) and not np.all((box[0] <= clip_boxes[:, 1]) &
-                                     (clip_boxes[:, 0] <= box[1])):
-            continue                     # outside some clip's box: nothing of it remains
-        piece = Manifold.batch_boolean([adds[k] for k in index], Op.Add)
-        if len(reach):
-            piece = Manifold.batch_boolean([piece] + [cuts[k] for k in np.unique(reach)],
-                                           Op.Subtract)
-        if len(clips):
-            piece = Manifold.batch_boolean([piece, *clips], Op.Intersect)
-        pieces.append(piece)
-    return Manifold.batch_boolean(pieces, Op.Add)
+        box = np.array([adds[index, 0].min(axis=0), adds[index, 1].max(axis=0)])
+        if len(clips) and not np.all((box[0] <= clips[:, 1]) & (clips[:, 0] <= box[1])):
+            continue
+        work.append((index, np.unique(reach)))
+    return work
+
+
+def combine_cluster(adds, cuts=(), clips=()):
+    """``(union of adds - union of cuts) & every clip``, one ``batch_boolean`` per operation."""
+    import manifold3d
+
+    Manifold, Op = manifold3d.Manifold, manifold3d.OpType
+    piece = adds[0] if len(adds) == 1 else Manifold.batch_boolean(list(adds), Op.Add)
+    if len(cuts):
+        piece = Manifold.batch_boolean([piece, *cuts], Op.Subtract)
+    if len(clips):
+        piece = Manifold.batch_boolean([piece, *clips], Op.Intersect)
+    return piece
+
+
+def combine(adds, cuts=(), clips=()):
+    """``(union of adds - union of cuts) & every clip`` as one :class:`manifold3d.Manifold`.
+
+    Adds are clustered by bounding-box overlap (:func:`clusters`). A cluster of one
+    needs no union, a cluster no cut reaches needs no difference, and the clusters,
+    being disjoint, are composed at the end without boolean work.
+    """
+    import manifold3d
+
+    work = clusters(bounding_boxes(adds), bounding_boxes(cuts), bounding_boxes(clips))
+    pieces = [combine_cluster([adds[k] for k in index], [cuts[k] for k in reach], clips)
+              for index, reach in work]
+    if len(pieces) == 1:
+        return pieces[0]
+    return manifold3d.Manifold.batch_boolean(pieces, manifold3d.OpType.Add)
 
 
 def is_void(solid, adds):
@@ -192,3 +228,79 @@ def float32_step(bounds):
     USD) cannot tell two points apart."""
     largest = float(np.abs(np.asarray(bounds, dtype=np.float64)).max(initial=0.0))
     return 4 * float(np.finfo(np.float32).eps) * largest
+
+
+def exportable(solid, part_of_id=None, **mesh_options):
+    """The :class:`Mesh` of a boolean result, fit for files of float32 coordinates.
+
+    What float32 cannot tell apart, a file merges: an edge shorter than
+    :func:`float32_step` becomes a point (manifold3d's ``simplify`` collapses it,
+    moving the surface less than that), and copies of one point that the boolean
+    kept apart, where the solid touches itself (a pinch), become one vertex with
+    non-manifold edges (:func:`separated_pinches` moves each copy into its own
+    fan). Triangles of zero area go with the collapses.
+
+    Parameters
+    ----------
+    solid : manifold3d.Manifold
+    part_of_id : mapping of int to str, optional
+        As for :meth:`Mesh.from_manifold`.
+    **mesh_options
+        Other :meth:`Mesh.from_manifold` arguments.
+
+    Returns
+    -------
+    mesh : Mesh
+    """
+    step = float32_step(solid.bounding_box())
+    mesh = Mesh.from_manifold(solid.simplify(step), part_of_id=part_of_id, **mesh_options)
+    return separated_pinches(mesh, step)
+
+
+def separated_pinches(mesh, step):
+    """``mesh`` with vertices closer than ``step`` (copies of one point) moved apart.
+
+    Each such vertex moves by ``2 * step`` towards the centre of its own neighbours
+    (at most a quarter of its shortest edge), into the fan of triangles it belongs
+    to, so the fans that touched there part and every file keeps them apart.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        Closed, its vertices in the model's length unit.
+    step : float
+        The distance below which a file merges two points.
+
+    Returns
+    -------
+    mesh : Mesh
+        ``mesh`` itself when no vertex needs to move.
+    """
+    from scipy.spatial import cKDTree
+
+    vertices, faces = mesh.vertices, mesh.faces
+    if step <= 0 or len(vertices) < 2:
+        return mesh
+    movers = np.unique(cKDTree(vertices).query_pairs(step, output_type="ndarray"))
+    if not len(movers):
+        return mesh
+    moving = np.zeros(len(vertices), bool)
+    moving[movers] = True
+    ring = np.zeros_like(vertices)
+    count = np.zeros(len(vertices))
+    shortest = np.full(len(vertices), np.inf)
+    for k in range(3):                       # each corner's two neighbours in its triangle
+        here, a, b = faces[:, k], faces[:, (k + 1) % 3], faces[:, (k + 2) % 3]
+        rows = np.flatnonzero(moving[here])
+        np.add.at(ring, here[rows], vertices[a[rows]] + vertices[b[rows]])
+        np.add.at(count, here[rows], 2)
+        for other in (a, b):
+            length = np.linalg.norm(vertices[other[rows]] - vertices[here[rows]], axis=1)
+            np.minimum.at(shortest, here[rows], length)
+    toward = ring[movers] / np.maximum(count[movers], 1)[:, None] - vertices[movers]
+    norm = np.linalg.norm(toward, axis=1, keepdims=True)
+    distance = np.minimum(2 * step, 0.25 * shortest[movers])[:, None]
+    moved = np.array(vertices)
+    moved[movers] += np.divide(toward, norm, out=np.zeros_like(toward), where=norm > 0) * distance
+    return Mesh.trusted(moved, faces, face_part=mesh.face_part, part_names=mesh.part_names,
+                        attributes=mesh.attributes)
