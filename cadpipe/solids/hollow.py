@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from cadpipe import _deprecated
-from cadpipe._validate import as_choice, as_positive
+from cadpipe._validate import as_choice, as_flag, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import Mesh
@@ -32,7 +32,8 @@ END_STYLES = ("open", "closed")
 
 def _ends(ends):
     """``(start, end)`` styles from one style or a pair."""
-    pair = (ends, ends) if isinstance(ends, str) else tuple(ends)
+    pair = (ends, ends) if isinstance(ends, str) else tuple(ends) \
+        if isinstance(ends, (tuple, list)) else ()
     if len(pair) != 2:
         raise InputError(f"expected 'open', 'closed' or a pair of them, got {ends!r}", key="ends")
     return tuple(as_choice(e, "ends", END_STYLES) for e in pair)
@@ -240,7 +241,10 @@ class HollowChain(Hollow):
     bores. The pipes first give up room for the transitions the way
     :func:`~cadpipe.splice` does, so both chains splice between the same end points
     and tangents and each bore transition runs inside its outer one, ``wall`` in
-    from it. ``ends`` applies to the chain's two ends; a closed chain has none. (The
+    from it; where a ball joint joins two pipes (see :func:`~cadpipe.splice`) the bore
+    has a ball joint ``wall`` smaller, and where pieces cross, both chains are their
+    pieces' unions, so the bores of crossing pipes meet as a junction's do. ``ends``
+    applies to the chain's two ends; a closed chain has none. (The
     0.1 form ``HollowChain([p, q], wall, ...)`` still works for this release, with a
     :class:`DeprecationWarning`.)
     """
@@ -269,7 +273,7 @@ class HollowChain(Hollow):
         set_("wall", _wall(wall, members))
         set_("ends", _ends(ends))
         set_("transition", as_choice(transition, "transition", TRANSITIONS))
-        set_("closed", bool(closed))
+        set_("closed", as_flag(closed, "closed"))
 
     def replace(self, **changes) -> "HollowChain":
         """This chain with some settings changed (``pipes=`` a sequence)."""
@@ -280,9 +284,10 @@ class HollowChain(Hollow):
 
     def solids(self):
         """``([spliced outer pipes], [spliced bores])``."""
-        from cadpipe.geometry.splice import make_room, splice
+        from cadpipe.geometry.splice import chain_mesh, make_room
 
-        outers = make_room(list(self.pipes), self.closed)
+        plan = make_room(list(self.pipes), self.closed, self.transition)
+        outers = list(plan.pipes)
         last = len(outers) - 1
         open_ends = not self.closed
         if open_ends:
@@ -291,8 +296,10 @@ class HollowChain(Hollow):
         bores = [bore(p, self.wall, self.ends[0] if i == 0 and open_ends else "flush",
                       self.ends[1] if i == last and open_ends else "flush")
                  for i, p in enumerate(outers)]
-        options = {"transition": self.transition, "closed": self.closed}
-        return [splice(*outers, **options)], [splice(*bores, **options)]
+        if len(outers) == 1 and not self.closed:
+            return [outers[0].mesh()], [bores[0].mesh()]
+        options = {"joint": plan.joint, "transition": self.transition, "closed": self.closed}
+        return [chain_mesh(outers, **options)], [chain_mesh(bores, **options)]
 
     @property
     def attributes(self) -> Mapping[str, Any]:
