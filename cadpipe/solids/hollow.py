@@ -25,7 +25,7 @@ from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe, envelope_factor
-from cadpipe.geometry.splice import TRANSITIONS
+from cadpipe.geometry.splice import TRANSITIONS, chain_members
 
 END_STYLES = ("open", "closed")
 
@@ -105,6 +105,9 @@ def _members(args, kind, name, keyword):
     """The members of a Junction or HollowChain: given as arguments (``splice``'s
     convention), or, deprecated, as one list."""
     if keyword is not None:
+        if not isinstance(keyword, (list, tuple)):
+            raise InputError(f"expected a list of pipes, got {type(keyword).__name__}",
+                             key="pipes")
         return tuple(keyword)
     if len(args) == 1 and not isinstance(args[0], kind) and hasattr(args[0], "__iter__"):
         warnings.warn(f"{name}([...]) with a list is deprecated: pass the pipes as arguments, "
@@ -208,8 +211,12 @@ class Junction(Hollow):
 
     def __init__(self, *hollow_pipes: HollowPipe, pipes=None):
         members = _members(hollow_pipes, HollowPipe, "Junction", pipes)
-        if not members or not all(isinstance(p, HollowPipe) for p in members):
-            raise InputError("expected one or more cadpipe.HollowPipe", key="pipes")
+        if not members:
+            raise InputError("expected one or more cadpipe.HollowPipe, got none", key="pipes")
+        for i, p in enumerate(members):
+            if not isinstance(p, HollowPipe):
+                raise InputError(f"argument {i} is a {type(p).__name__}, not a "
+                                 "cadpipe.HollowPipe", key="pipes", index=i)
         object.__setattr__(self, "pipes", members)
 
     def replace(self, **changes) -> "Junction":
@@ -263,9 +270,7 @@ class HollowChain(Hollow):
             args = args[:1]
             wall, ends = old.get("wall", wall), old.get("ends", ends)
             transition, closed = old.get("transition", transition), old.get("closed", closed)
-        members = _members(args, Pipe, "HollowChain", pipes)
-        if not members or not all(isinstance(p, Pipe) for p in members):
-            raise InputError("expected one or more cadpipe.Pipe", key="pipes")
+        members = tuple(chain_members(_members(args, Pipe, "HollowChain", pipes)))
         if wall is None:
             raise InputError("give the wall thickness: HollowChain(*pipes, wall=...)", key="wall")
         set_ = partial(object.__setattr__, self)
