@@ -25,7 +25,7 @@ from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Polylines
-from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, tubes_of
+from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, envelope_factor, tubes_of
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import Tubes
 
@@ -171,10 +171,14 @@ def _room_for_transitions(pipes, tubes, before, after):
     return pipes, tubes_of(pipes)
 
 
-def chain_mesh(pipes, joint, transition, closed):
+def chain_mesh(pipes, joint, transition, closed, bore_of=None):
     """The solid of a chain whose junctions are planned (:func:`make_room`): stitched
     pipes and transitions, or, where a joint joins them or pieces cross, the union
-    of the pieces."""
+    of the pieces.
+
+    ``bore_of``: ``(outer pipes, wall)`` when ``pipes`` are the bores of those (a
+    hollow chain's): each bore transition then lies ``wall`` inside the outer one
+    across its faces (see :func:`_transition_tubes`)."""
     strict = any(getattr(p, "strict", False) for p in pipes)
     before, after = _junctions(len(pipes), closed)
     last = len(pipes) - 1
@@ -187,7 +191,12 @@ def chain_mesh(pipes, joint, transition, closed):
              for i, p in enumerate(pipes)]
     tubes = tubes_of(pipes)
     sides = tubes.sides
-    bridges, _ = _transition_tubes(tubes, before[~joint], after[~joint], transition)
+    outer = None
+    if bore_of is not None:
+        outer_tubes = tubes_of(bore_of[0])
+        outer = (outer_tubes.ring_radii[outer_tubes.groups.last[before[~joint]]],
+                 outer_tubes.ring_radii[outer_tubes.groups.first[after[~joint]]], bore_of[1])
+    bridges, _ = _transition_tubes(tubes, before[~joint], after[~joint], transition, outer)
 
     surface = Surface()
     ends = add_pipe_surfaces(surface, tubes, pipes, parts=[surface.part(f"pipe{i}")
@@ -229,7 +238,7 @@ def _flat_at(pipe, start, end):
     return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
 
-def _transition_tubes(tubes, before, after, transition):
+def _transition_tubes(tubes, before, after, transition, outer=None):
     """The transitions from each pipe's end to the next one's start, as one batch, and
     which of them would fold.
 
@@ -237,6 +246,11 @@ def _transition_tubes(tubes, before, after, transition):
     one to the other; its frames start from the first pipe's end ring and end on the
     second's start ring (up to a whole ``2*pi/sides`` step). Its end rings are the
     pipes' own, so only its inner rings are used.
+
+    ``outer``: ``(outer end radii, outer start radii, wall)`` for the bores of a hollow
+    chain: each inner ring is then also at least ``wall`` inside the outer
+    transition's across its faces: ``wall / cos(pi / n)`` for the fewest sides n of the
+    two pipes and the transition, over the cosine of the outer transition's taper.
 
     Returns
     -------
@@ -256,7 +270,9 @@ def _transition_tubes(tubes, before, after, transition):
     t1, t2 = lines.directions[:, end], lines.directions[:, start]
     chord = norm(s - e, 0)
     r1, r2 = tubes.ring_radii[end], tubes.ring_radii[start]
-    rings = RINGS_PER_RADIUS * chord / np.minimum(r1, r2)
+    # a bore's transition has its outer one's rings, so their faces stay parallel
+    rings = RINGS_PER_RADIUS * chord / (np.minimum(r1, r2) if outer is None
+                                        else np.minimum(outer[0], outer[1]))
     limits.check("max_triangles", float(np.sum(2 * rings * sides)),
                  f"the transitions across gaps of up to {chord.max():.6g}", key="pipes")
     count = np.maximum(MIN_RINGS + 1, np.ceil(rings).astype(np.int64))
@@ -272,6 +288,12 @@ def _transition_tubes(tubes, before, after, transition):
     ease = 3 * u**2 - 2 * u**3
     radii = spread(r1) + spread(r2 - r1) * ease
     bridges = Polylines(points, curves)
+    if outer is not None:
+        radii = np.minimum(radii, _bore_radii(bridges, outer[0], outer[1],
+                                              (tubes.sides[before], tubes.sides[after]), ease,
+                                              outer[2] * envelope_factor(np.minimum(
+                                                  sides, np.minimum(tubes.sides[before],
+                                                                    tubes.sides[after])))))
     extent = np.max(np.maximum.reduceat(points, curves.first, axis=1)
                     - np.minimum.reduceat(points, curves.first, axis=1), axis=0)
     tolerance = 1e-9 * np.maximum(extent, 1.0)                  # as Path drops duplicates
@@ -285,6 +307,29 @@ def _transition_tubes(tubes, before, after, transition):
                     normals=tubes.normals[:, end].T, end_normals=tubes.normals[:, start].T)
     bent = np.array([bool(f) for f in bridges.self_intersection_findings()])
     return bridges, bent | _ends_fold(bridges, t1, t2)
+
+
+def _bore_radii(bridges, r1, r2, sides, ease, inset):
+    """(N,) ring radii ``inset`` (per transition) inside the outer transition eased from
+    ``r1`` to ``r2``, more by the cosine of its taper (the steeper segment at each
+    ring), as :func:`cadpipe.solids.hollow.inset` does along a pipe."""
+    groups = bridges.groups
+    outer = groups.spread(r1) + groups.spread(r2 - r1) * ease
+    slope = np.abs(groups.following(outer) - outer) / np.where(
+        bridges.segment_lengths > 0, bridges.segment_lengths, 1.0)
+    slope[groups.last] = slope[groups.last - 1]
+    steepest = np.maximum(slope, np.r_[slope[:1], slope[:-1]])
+    steepest[groups.first] = slope[groups.first]
+    # the stitches from a pipe's n-gon to the transition's rings lean from the pipe's
+    # flat faces (inradius) out to the transition's vertices
+    for inner, pipe_radius, pipe_sides, segment in ((groups.first + 1, r1, sides[0],
+                                                     groups.first),
+                                                    (groups.last - 1, r2, sides[1],
+                                                     groups.last - 1)):
+        lean = np.abs(outer[inner] - pipe_radius * np.cos(np.pi / pipe_sides)) \
+            / bridges.segment_lengths[segment]
+        steepest[inner] = np.maximum(steepest[inner], lean)
+    return outer - groups.spread(inset) * np.hypot(1.0, steepest)
 
 
 def _ends_fold(bridges, t1, t2):

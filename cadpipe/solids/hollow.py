@@ -28,6 +28,8 @@ from cadpipe.geometry.pipe import Pipe, envelope_factor
 from cadpipe.geometry.splice import TRANSITIONS, chain_members
 
 END_STYLES = ("open", "closed")
+#: most times a bore's round closed end is pulled back to fit inside the outer cap
+ROOM_STEPS = 8
 
 
 def _ends(ends):
@@ -58,13 +60,29 @@ def mouths(pipe, start="open", end="open"):
     return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
 
+def inset(pipe, wall):
+    """(N,) how much smaller each bore ring is than ``pipe``'s so that every flat face of
+    the bore lies ``wall`` inside the outer face parallel to it: ``wall / cos(pi /
+    sides)`` (the ring's vertices are farther out than its faces), divided by the
+    cosine of the taper where the radius changes along the path (a frustum's face
+    leans by its taper angle; take the steeper segment at each ring)."""
+    slope = np.abs(np.diff(pipe.ring_radii)) / pipe.path.segment_lengths[:len(pipe.path) - 1]
+    if pipe.closed:
+        slope = np.append(slope, abs(pipe.ring_radii[0] - pipe.ring_radii[-1])
+                          / pipe.path.segment_lengths[-1])
+        steepest = np.maximum(slope, np.roll(slope, 1))
+    else:
+        steepest = np.maximum(np.r_[slope[:1], slope], np.r_[slope, slope[-1:]])
+    return wall * envelope_factor(pipe.sides) * np.hypot(1.0, steepest)
+
+
 def bore(pipe, wall, start="open", end="open"):
     """The :class:`Pipe` cut out of ``pipe`` (an outer pipe, see :func:`mouths`) to
     leave walls ``wall`` thick across the flat faces.
 
     Same path, sides, frames and caps, rings aligned with the outer rings and
-    ``wall / cos(pi / sides)`` smaller, so each flat face of the bore lies ``wall``
-    inside the outer face parallel to it (the vertices are farther apart). Per end:
+    :func:`inset` smaller, so each flat face of the bore lies ``wall`` inside the
+    outer face parallel to it, on tapers too (the vertices are farther apart). Per end:
     ``"open"`` runs the bore ``wall`` past the outer solid's end, ``"closed"`` stops it
     ``wall`` short of a flat cap (a round cap gets its own round cap inside),
     ``"flush"`` ends it with the pipe (where a splice continues it).
@@ -74,7 +92,10 @@ def bore(pipe, wall, start="open", end="open"):
            else reach - wall if style == "flat" else 0.0
            for e, style, reach in zip(ends, pipe.cap_styles, pipe.cap_reach)]
     path = pipe.path
-    radii = pipe.ring_radii - wall * envelope_factor(pipe.sides)
+    radii = pipe.ring_radii - inset(pipe, wall)
+    if radii.min() <= 0:
+        raise InputError(f"{wall:g} leaves no bore where the pipe tapers steeply (path point "
+                         f"{int(np.argmin(radii))}); use a thinner wall", key="wall")
     extend = [max(r, 0.0) for r in run]
     if any(extend):
         head = [path.points[0] - extend[0] * path.directions[0]] if extend[0] else []
@@ -84,12 +105,53 @@ def bore(pipe, wall, start="open", end="open"):
     inner = pipe.replace(path=path, radius=radii, sides=pipe.sides, envelope=False,
                          normal=pipe.normals[0])
     cut = [max(-r, 0.0) for r in run]
+    for k, (e, style) in enumerate(zip(ends, pipe.cap_styles)):
+        if e == "closed" and style == "round" and not pipe.closed:
+            # on a taper the pulled-back cap has another radius: pull again until it fits
+            for _ in range(ROOM_STEPS):
+                trimmed = inner.trimmed(*[cut[k] if j == k else 0.0 for j in range(2)])
+                room = _round_end_room(pipe, trimmed, wall, -1 if k == 0 else 1)
+                if room <= 1e-9 * wall:
+                    break
+                cut[k] += room
     if not any(cut):
         return inner
     if sum(cut) >= path.length:
         raise InputError(f"closed ends {wall:g} thick leave no bore in a pipe "
                          f"{path.length:g} long; use a thinner wall or open ends", key="wall")
     return inner.trimmed(*cut)
+
+
+def _cap_points(pipe, sign):
+    """(K, 3) vertices of ``pipe``'s round cap at one end (``sign`` -1: start), its
+    end ring included."""
+    from cadpipe.geometry.pipe import cap_axes
+    from cadpipe.geometry.rings import ring_basis
+
+    row = 0 if sign < 0 else len(pipe.path) - 1
+    axes, pole = cap_axes(pipe._tubes, row, sign, pipe, "round")
+    rings = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
+    return np.concatenate([pipe.rings()[row], rings, pole[None]])
+
+
+def _round_end_room(outer, inner, wall, sign):
+    """How far to pull a bore's round cap back from a closed round end of ``outer`` so
+    that it lies ``wall`` inside every face of the outer cap.
+
+    Both caps are convex; the bore's cap vertices must lie ``wall`` inside each
+    outer cap face's plane (outward normal n, facing along the end tangent t by
+    ``n . t > 0``); moving the bore back by ``d`` gains ``d (n . t)``.
+    """
+    from scipy.spatial import ConvexHull
+
+    t = sign * outer.path.directions[0 if sign < 0 else -1]
+    hull = ConvexHull(_cap_points(outer, sign))
+    normal, offset = hull.equations[:, :3], -hull.equations[:, 3]
+    facing = normal @ t
+    caps = facing > 1e-9
+    bore_points = _cap_points(inner, sign)
+    need = (bore_points @ normal[caps].T).max(axis=0) - offset[caps] + wall
+    return float(max(0.0, (need / facing[caps]).max()))
 
 
 class Hollow:
@@ -304,7 +366,8 @@ class HollowChain(Hollow):
         if len(outers) == 1 and not self.closed:
             return [outers[0].mesh()], [bores[0].mesh()]
         options = {"joint": plan.joint, "transition": self.transition, "closed": self.closed}
-        return [chain_mesh(outers, **options)], [chain_mesh(bores, **options)]
+        return [chain_mesh(outers, **options)], [chain_mesh(bores, **options,
+                                                           bore_of=(outers, self.wall))]
 
     @property
     def attributes(self) -> Mapping[str, Any]:
