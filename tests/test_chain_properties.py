@@ -47,7 +47,7 @@ def chains(draw):
                      + [1e-3, 0, 0])
     start = np.zeros(3)
     pipes, joins = [], []
-    for i in range(count):
+    for _ in range(count):
         points = [start]
         for _ in range(draw(st.integers(1, 4))):
             direction = unit(turned(direction, draw(angles), draw(spins)))
