@@ -12,7 +12,7 @@ ends run a little past the pipe, so the cut leaves no skin.
 import dataclasses
 import warnings
 from dataclasses import dataclass
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from functools import cached_property, partial
 from typing import Any
 
@@ -265,13 +265,23 @@ class Junction(Hollow):
     ``Junction(*hollow_pipes)``: the union of every outer solid minus the union of
     every bore, so each bore runs through the others' walls and the channels
     connect. Give an end that meets another pipe ``ends="open"`` so its bore reaches
-    into that pipe's bore. (A single list, ``Junction([a, b])``, still works for this
-    release, with a :class:`DeprecationWarning`.)
+    into that pipe's bore. Pipes may cross anywhere: the unions make one solid, and
+    where a bore crosses another pipe the channels meet. (A single list,
+    ``Junction([a, b])``, still works for this release, with a
+    :class:`DeprecationWarning`.)
+
+    Parameters
+    ----------
+    *hollow_pipes : HollowPipe
+        The branches, one or more.
+    pipes : sequence of HollowPipe, optional
+        The branches as one sequence instead (what :meth:`replace` passes).
     """
 
     pipes: tuple[HollowPipe, ...]
 
-    def __init__(self, *hollow_pipes: HollowPipe, pipes=None):
+    def __init__(self, *hollow_pipes: HollowPipe,
+                 pipes: Sequence[HollowPipe] | None = None) -> None:
         members = _members(hollow_pipes, HollowPipe, "Junction", pipes)
         if not members:
             raise InputError("expected one or more cadpipe.HollowPipe, got none", key="pipes")
@@ -281,15 +291,31 @@ class Junction(Hollow):
                                  "cadpipe.HollowPipe", key="pipes", index=i)
         object.__setattr__(self, "pipes", members)
 
-    def replace(self, **changes) -> "Junction":
-        """This junction with some settings changed (``pipes=`` a sequence)."""
+    def replace(self, **changes: Any) -> "Junction":
+        """This junction with some settings changed.
+
+        Parameters
+        ----------
+        **changes
+            ``pipes=``: a new sequence of :class:`HollowPipe`.
+
+        Returns
+        -------
+        junction : Junction
+        """
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return f"<cadpipe.Junction of {len(self.pipes)} hollow pipes>"
 
-    def solids(self):
-        """``(outer meshes, bore meshes)`` of every pipe."""
+    def solids(self) -> tuple[list[Mesh], list[Mesh]]:
+        """What an assembly adds and what it cuts.
+
+        Returns
+        -------
+        solids, bores : list of Mesh
+            Every pipe's outer mesh, and every pipe's bore mesh.
+        """
         outer, bores = zip(*(p.solids() for p in self.pipes))
         return [m for ms in outer for m in ms], [m for ms in bores for m in ms]
 
@@ -316,6 +342,21 @@ class HollowChain(Hollow):
     applies to the chain's two ends; a closed chain has none. (The
     0.1 form ``HollowChain([p, q], wall, ...)`` still works for this release, with a
     :class:`DeprecationWarning`.)
+
+    Parameters
+    ----------
+    *args : Pipe
+        The pipes, open, in order along the chain.
+    pipes : sequence of Pipe, optional
+        The pipes as one sequence instead (what :meth:`replace` passes).
+    wall : float
+        Wall thickness in metres, across the flat faces (see :class:`HollowPipe`).
+    ends : {"open", "closed"} or pair of them
+        The chain's two ends (see :class:`HollowPipe`).
+    transition : {"lcm", "merge"}
+        As for :func:`~cadpipe.splice`.
+    closed : bool
+        Also join the last pipe's end to the first pipe's start.
     """
 
     pipes: tuple[Pipe, ...]
@@ -324,8 +365,9 @@ class HollowChain(Hollow):
     transition: str = "lcm"
     closed: bool = False
 
-    def __init__(self, *args, pipes=None, wall=None, ends="open", transition="lcm",
-                 closed=False):
+    def __init__(self, *args: Pipe, pipes: Sequence[Pipe] | None = None,
+                 wall: float | None = None, ends: str | tuple[str, str] = "open",
+                 transition: str = "lcm", closed: bool = False) -> None:
         if pipes is None and args and not isinstance(args[0], Pipe) \
                 and hasattr(args[0], "__iter__"):
             old = dict(zip(("wall", "ends", "transition", "closed"), args[1:]))
@@ -342,15 +384,32 @@ class HollowChain(Hollow):
         set_("transition", as_choice(transition, "transition", TRANSITIONS))
         set_("closed", as_flag(closed, "closed"))
 
-    def replace(self, **changes) -> "HollowChain":
-        """This chain with some settings changed (``pipes=`` a sequence)."""
+    def replace(self, **changes: Any) -> "HollowChain":
+        """This chain with some settings changed.
+
+        Parameters
+        ----------
+        **changes
+            New values of ``pipes`` (a sequence), ``wall``, ``ends``, ``transition``,
+            ``closed``.
+
+        Returns
+        -------
+        chain : HollowChain
+        """
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return f"<cadpipe.HollowChain of {len(self.pipes)} pipes, wall {self.wall:g}>"
 
-    def solids(self):
-        """``([spliced outer pipes], [spliced bores])``."""
+    def solids(self) -> tuple[list[Mesh], list[Mesh]]:
+        """What an assembly adds and what it cuts.
+
+        Returns
+        -------
+        solids, bores : list of Mesh
+            ``[the spliced outer pipes]`` and ``[the spliced bores]``.
+        """
         from cadpipe.geometry.splice import chain_mesh, make_room
 
         plan = make_room(list(self.pipes), self.closed, self.transition)
