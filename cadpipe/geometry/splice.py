@@ -87,7 +87,7 @@ def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
     if len(pipes) == 1 and not closed:
         return pipes[0].mesh().with_parts(["pipe0"])
     plan = make_room(pipes, closed, transition)
-    return chain_mesh(plan.pipes, plan.joint, transition, closed)
+    return chain_mesh(plan.pipes, plan.joint, transition, closed, tubes=plan.tubes)
 
 
 def chain_members(pipes):
@@ -122,10 +122,13 @@ class ChainPlan:
     joint : (J,) bool array
         Per junction (pipe i to pipe i + 1, and the last to the first in a closed
         chain): True where a ball joint replaces a transition that would fold.
+    tubes : Tubes
+        The pipes' batch (caps aside, what :func:`chain_mesh` builds them from).
     """
 
     pipes: list
     joint: np.ndarray
+    tubes: Tubes
 
 
 def make_room(pipes, closed=False, transition="lcm"):
@@ -142,7 +145,7 @@ def make_room(pipes, closed=False, transition="lcm"):
         _check_pipes(tubes)
         bent = _transition_tubes(tubes, before[~joint], after[~joint], transition)[1]
         if not bent.any():
-            return ChainPlan(trimmed, joint)
+            return ChainPlan(trimmed, joint, tubes)
         joint[np.flatnonzero(~joint)[bent]] = True
 
 
@@ -171,14 +174,15 @@ def _room_for_transitions(pipes, tubes, before, after):
     return pipes, tubes_of(pipes)
 
 
-def chain_mesh(pipes, joint, transition, closed, bore_of=None):
+def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None):
     """The solid of a chain whose junctions are planned (:func:`make_room`): stitched
     pipes and transitions, or, where a joint joins them or pieces cross, the union
     of the pieces.
 
     ``bore_of``: ``(outer pipes, wall)`` when ``pipes`` are the bores of those (a
     hollow chain's): each bore transition then lies ``wall`` inside the outer one
-    across its faces (see :func:`_transition_tubes`)."""
+    across its faces (see :func:`_transition_tubes`). ``tubes``: the pipes' batch if
+    already made (caps do not change it)."""
     strict = any(getattr(p, "strict", False) for p in pipes)
     before, after = _junctions(len(pipes), closed)
     last = len(pipes) - 1
@@ -189,7 +193,7 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None):
     pipes = [_flat_at(p, cap_start[i] and not (i == 0 and not closed),
                       cap_end[i] and not (i == last and not closed))
              for i, p in enumerate(pipes)]
-    tubes = tubes_of(pipes)
+    tubes = tubes_of(pipes) if tubes is None else tubes
     sides = tubes.sides
     outer = None
     if bore_of is not None:
@@ -448,12 +452,19 @@ def _crossing_pieces(pieces, closed):
                                           / reach).astype(np.int64)
     first = np.flatnonzero(np.r_[True, run_key[1:] != run_key[:-1]])
     pad = np.maximum.reduceat(radius, first)
+    thin = np.minimum.reduceat(radius, first)
+    stop = np.r_[first[1:], len(a)]
+    span = np.c_[arc[first], arc[stop - 1] + length[stop - 1]]   # each run along the chain
     lo = np.minimum.reduceat(np.minimum(a, b), first, axis=0) - pad[:, None]
     hi = np.maximum.reduceat(np.maximum(a, b), first, axis=0) + pad[:, None]
-    stop = np.r_[first[1:], len(a)]
     found = set()
     for pairs in box_pairs(lo, hi):
         pairs = pairs[part[first[pairs[:, 0]]] != part[first[pairs[:, 1]]]]
+        # runs whose farthest segments lie nearer along the chain than the least
+        # distance that counts hold no pair that counts
+        farthest = np.maximum(span[pairs[:, 1], 1] - span[pairs[:, 0], 0],
+                              span[pairs[:, 0], 1] - span[pairs[:, 1], 0])
+        pairs = pairs[farthest >= 0.5 * np.pi * (thin[pairs[:, 0]] + thin[pairs[:, 1]])]
         if not len(pairs):
             continue
         # every segment of one run against every segment of the other
