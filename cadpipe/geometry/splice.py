@@ -87,7 +87,8 @@ def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
     if len(pipes) == 1 and not closed:
         return pipes[0].mesh().with_parts(["pipe0"])
     plan = make_room(pipes, closed, transition)
-    return chain_mesh(plan.pipes, plan.joint, transition, closed, tubes=plan.tubes)
+    return chain_mesh(plan.pipes, plan.joint, transition, closed, tubes=plan.tubes,
+                      bridges=plan.bridges)
 
 
 def chain_members(pipes):
@@ -122,13 +123,15 @@ class ChainPlan:
     joint : (J,) bool array
         Per junction (pipe i to pipe i + 1, and the last to the first in a closed
         chain): True where a ball joint replaces a transition that would fold.
-    tubes : Tubes
-        The pipes' batch (caps aside, what :func:`chain_mesh` builds them from).
+    tubes, bridges : Tubes
+        The pipes' batch (caps aside, what :func:`chain_mesh` builds them from) and
+        the transitions' (None without any).
     """
 
     pipes: list
     joint: np.ndarray
     tubes: Tubes
+    bridges: Tubes | None
 
 
 def make_room(pipes, closed=False, transition="lcm"):
@@ -143,9 +146,10 @@ def make_room(pipes, closed=False, transition="lcm"):
         trimmed, tubes = _room_for_transitions(pipes, tubes_of(pipes), before[~joint],
                                                after[~joint])
         _check_pipes(tubes)
-        bent = _transition_tubes(tubes, before[~joint], after[~joint], transition)[1]
+        bridges, bent = _transition_tubes(tubes, before[~joint], after[~joint], transition,
+                                          check=True)
         if not bent.any():
-            return ChainPlan(trimmed, joint, tubes)
+            return ChainPlan(trimmed, joint, tubes, bridges)
         joint[np.flatnonzero(~joint)[bent]] = True
 
 
@@ -174,15 +178,16 @@ def _room_for_transitions(pipes, tubes, before, after):
     return pipes, tubes_of(pipes)
 
 
-def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None):
+def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridges=None):
     """The solid of a chain whose junctions are planned (:func:`make_room`): stitched
     pipes and transitions, or, where a joint joins them or pieces cross, the union
     of the pieces.
 
     ``bore_of``: ``(outer pipes, wall)`` when ``pipes`` are the bores of those (a
     hollow chain's): each bore transition then lies ``wall`` inside the outer one
-    across its faces (see :func:`_transition_tubes`). ``tubes``: the pipes' batch if
-    already made (caps do not change it)."""
+    across its faces (see :func:`_transition_tubes`). ``tubes``, ``bridges``: the
+    pipes' and transitions' batches if already made (:class:`ChainPlan`; caps do not
+    change them)."""
     strict = any(getattr(p, "strict", False) for p in pipes)
     before, after = _junctions(len(pipes), closed)
     last = len(pipes) - 1
@@ -200,7 +205,9 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None):
         outer_tubes = tubes_of(bore_of[0])
         outer = (outer_tubes.ring_radii[outer_tubes.groups.last[before[~joint]]],
                  outer_tubes.ring_radii[outer_tubes.groups.first[after[~joint]]], bore_of[1])
-    bridges, _ = _transition_tubes(tubes, before[~joint], after[~joint], transition, outer)
+    if bridges is None:
+        bridges = _transition_tubes(tubes, before[~joint], after[~joint], transition,
+                                    outer)[0]
 
     surface = Surface()
     ends = add_pipe_surfaces(surface, tubes, pipes, parts=[surface.part(f"pipe{i}")
@@ -242,7 +249,7 @@ def _flat_at(pipe, start, end):
     return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
 
-def _transition_tubes(tubes, before, after, transition, outer=None):
+def _transition_tubes(tubes, before, after, transition, outer=None, check=False):
     """The transitions from each pipe's end to the next one's start, as one batch, and
     which of them would fold.
 
@@ -262,7 +269,8 @@ def _transition_tubes(tubes, before, after, transition, outer=None):
         None when there are no junctions, or some transition is too short for its
         rings.
     bent : (J,) bool array
-        Transitions that would cut through themselves (or have no room).
+        Transitions that have no room, and with ``check`` those that would cut
+        through themselves.
     """
     if not len(before):
         return None, np.zeros(0, bool)
@@ -309,6 +317,8 @@ def _transition_tubes(tubes, before, after, transition, outer=None):
         return None, short
     bridges = Tubes(bridges, radii, sides, tubes.miter_limit[before],
                     normals=tubes.normals[:, end].T, end_normals=tubes.normals[:, start].T)
+    if not check:
+        return bridges, short
     bent = np.array([bool(f) for f in bridges.self_intersection_findings()])
     return bridges, bent | _ends_fold(bridges, t1, t2)
 

@@ -425,8 +425,8 @@ class HollowChain(Hollow):
         if len(outers) == 1 and not self.closed:
             return [outers[0].mesh()], [bores[0].mesh()]
         options = {"joint": plan.joint, "transition": self.transition, "closed": self.closed}
-        return [chain_mesh(outers, **options)], [chain_mesh(bores, **options,
-                                                           bore_of=(outers, self.wall))]
+        return ([chain_mesh(outers, **options, tubes=plan.tubes, bridges=plan.bridges)],
+                [chain_mesh(bores, **options, bore_of=(outers, self.wall))])
 
     @property
     def attributes(self) -> Mapping[str, Any]:
