@@ -136,3 +136,36 @@ def test_bad_pipe_argument_names_its_index():
     with pytest.raises(InputError) as caught:
         splice(line([0, 0, 0], [1, 0, 0]), cadpipe.Path([[0, 0, 0], [1, 0, 0]]))
     assert (caught.value.key, caught.value.index) == ("pipes", 1)
+
+
+def along(pipe, count=30):
+    """(count, 3) points and (count,) radii along ``pipe``'s path."""
+    s = np.linspace(0, pipe.path.length, count)
+    points = np.array([np.interp(s, pipe.path.arc_length, pipe.path.points[:, k])
+                       for k in range(3)]).T
+    return points, np.interp(s, pipe.path.arc_length, pipe.radii)
+
+
+@pytest.mark.parametrize("pipes", [
+    [line([0, 0, 0], [5, 0, 0], 1, 8, envelope=True),
+     line([7, 0, 0], [12, 0, 0], 1, 6, envelope=True)],                      # a transition
+    [line([0, 0, 0], [5, 0, 0], 1, 8, envelope=True),
+     line([8, 1, 0], [10, 5, 0], 1, 6, envelope=True)],                      # a bent one
+    [line([0, 0, 0], [5, 0, 0], 1, 8, envelope=True),
+     line([5, 0, 0], [10, 1.8, 0], 1, 8, envelope=True)],                    # touching, 20 deg
+    [line([0, 0, 0], [5, 0, 0], 1, 8, envelope=True),
+     line([5, 0, 0], [10, 0, 0], 1.5, 12, envelope=True)],                   # touching, wider
+    [line([0, 0, 0], [5, 0, 0], 1, 8, envelope=True),
+     line([5, 0, 0], [5, 5, 0], 1, 8, envelope=True)],                       # a corner
+    [Pipe([[0, 0, 0], [5, 0, 0]], [1, 0.5], 8, envelope=True, caps="round"),
+     Pipe([[7, 0, 0], [12, 2, 0]], [0.5, 1.2], 6, envelope=True, caps="round")],  # tapers, caps
+    [Pipe([[0, 0, 0], [5, 0, 0]], 1, 5, envelope=True),
+     Pipe([[5, 0, 0], [5, 5, 0], [5, 5, 5]], 1, 7, envelope=True, corners="round")],
+], ids=["gap", "bent-gap", "touch-20", "touch-wider", "corner", "tapers-caps", "round-joints"])
+def test_envelope_chain_holds_every_ball_on_its_pipes_paths(pipes):
+    mesh = splice(*pipes)
+    assert solid_problems(mesh, round_trip=False) == []
+    for pipe in pipes:
+        points, radii = along(pipe)
+        for point, radius in zip(points, radii):
+            assert covers(mesh, [point], radius), (point, radius)

@@ -141,7 +141,9 @@ def make_room(pipes, closed=False, transition="lcm"):
     Other chains along the same ends (a hollow chain's bores) follow the same plan.
     """
     before, after = _junctions(len(pipes), closed)
-    joint = np.zeros(len(before), bool)
+    # a safety envelope's ends stay where they are: touching ends get a ball joint
+    envelope = np.array([p.envelope for p in pipes])
+    joint = _touching(tubes_of(pipes), before, after) & (envelope[before] | envelope[after])
     while True:
         trimmed, tubes = _room_for_transitions(pipes, tubes_of(pipes), before[~joint],
                                                after[~joint])
@@ -165,17 +167,24 @@ def _room_for_transitions(pipes, tubes, before, after):
 
     Returns the pipes and their batch, rebuilt if any pipe was trimmed.
     """
-    groups = tubes.groups
-    end, start = groups.last[before], groups.first[after]
-    gap = norm(tubes.lines.xyz[:, start] - tubes.lines.xyz[:, end], 0)
-    room = np.minimum(tubes.ring_radii[end], tubes.ring_radii[start])
-    touching = gap < 0.5 * room
+    touching = _touching(tubes, before, after)
     if not touching.any():
         return pipes, tubes
     trim = np.zeros((len(pipes), 2))
+    groups = tubes.groups
+    room = np.minimum(tubes.ring_radii[groups.last[before]], tubes.ring_radii[groups.first[after]])
     trim[before[touching], 1] = trim[after[touching], 0] = 0.5 * room[touching]
     pipes = [p.trimmed(*t) if t.any() else p for p, t in zip(pipes, trim)]
     return pipes, tubes_of(pipes)
+
+
+def _touching(tubes, before, after):
+    """(J,) junctions whose ends are closer than half the smaller end radius: no room for
+    a transition between them."""
+    groups = tubes.groups
+    end, start = groups.last[before], groups.first[after]
+    gap = norm(tubes.lines.xyz[:, start] - tubes.lines.xyz[:, end], 0)
+    return gap < 0.5 * np.minimum(tubes.ring_radii[end], tubes.ring_radii[start])
 
 
 def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridges=None):
@@ -225,7 +234,7 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridg
         return Mesh.trusted(vertices, faces, face_part=face_part,
                             part_names=surface.part_names, attributes=attributes)
     names = surface.part_names
-    joined = [f"pipe{b} and pipe{a} (a ball joint: no transition fits)"
+    joined = [f"pipe{b} and pipe{a} (a ball joint)"
               for b, a in zip(before[joint].tolist(), after[joint].tolist())]
     merged = [f"{names[i]} and {names[j]} (they cross)" for i, j in crossing] + joined
     if strict:
