@@ -64,6 +64,14 @@ def as_int(value, name, *, low, high):
     return int(value)
 
 
+def as_flag(value, name):
+    """Return ``value`` if it is a bool (or numpy bool): a string such as ``"no"``
+    would read as True."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise InputError(f"expected true or false, got {shown(value)}", key=name)
+    return bool(value)
+
+
 def as_choice(value, name, choices):
     """Return ``value`` if it is one of ``choices``."""
     try:

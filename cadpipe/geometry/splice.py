@@ -7,18 +7,25 @@ rings have ``lcm(n1, n2)`` vertices and meet each pipe through an n-to-1 stitch;
 with ``transition="merge"`` its rings keep n1 then n2 vertices and the two sizes
 meet once, by angle. The frames run on from pipe1's end and are eased to pipe2's
 start, so a transition never twists.
+
+Where no transition fits (the pipes meet at a corner, or one starts before the
+previous one ends) the two are joined by a ball joint instead, and where pieces of
+the chain (pipes, transitions, joints) cross each other the chain is their union
+through manifold3d: the result is always one valid solid (see :func:`splice`).
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from cadpipe import limits
-from cadpipe._validate import as_choice
+from cadpipe._validate import as_choice, as_flag
 from cadpipe._vec import norm
 from cadpipe.errors import GeometryError, InputError
-from cadpipe.geometry.loft import Surface, zipper_faces
+from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Polylines
-from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, tubes_of
+from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, envelope_factor, tubes_of
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import Tubes
 
@@ -27,10 +34,15 @@ TRANSITIONS = ("lcm", "merge")
 #: transition rings per smallest radius of length (at least MIN_RINGS)
 RINGS_PER_RADIUS = 2.0
 MIN_RINGS = 3
+#: how far (a fraction of the ring radius, at most a quarter of the neighbouring
+#: segments) the cone closing a piece cut at a ring reaches into the next piece
+CUT_DEPTH = 0.1
+#: subdivisions of the icosphere a ball joint is built from (320 faces)
+BALL_SUBDIVISIONS = 2
 
 
 def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
-    """One watertight mesh: the pipes in order, joined by transitions.
+    """One valid solid: the pipes in order, joined by transitions.
 
     Parameters
     ----------
@@ -47,46 +59,51 @@ def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
     Returns
     -------
     Mesh
-        Faces labelled by part: ``pipe<i>`` and ``transition<i>`` (from pipe i to the
-        next).
+        A closed, outward, self-intersection-free 2-manifold. Faces labelled by part:
+        ``pipe<i>``, ``transition<i>`` (from pipe i to the next) and ``joint<i>``.
+        ``attributes["merged"]`` (absent for a chain stitched as it is) says which
+        pieces were united.
+
+    Where a transition would fold (the pipes meet at a corner, at any radius, or one
+    starts before or beside the previous one's end), the two pipes keep their ends as
+    given and are joined by a ball joint: the convex hull of a ball of each end's
+    ring radius about each end point (one ball where the ends touch), so every point
+    of both ends stays covered, as ``corners="round"`` covers a polyline's corner.
+    Pieces that cross each other (a pipe running through another, a joint) are
+    united through manifold3d, as a single pipe that overlaps itself becomes its
+    swept solid: the user asked for one solid along these paths, and their union is
+    it. Pieces are checked against each other through boxes of pieces, then of
+    triangles, so a clean chain is returned stitched as it is. A chain with a pipe
+    made with ``strict=True`` refuses instead, with a :class:`GeometryError` naming
+    the pieces.
 
     All pipes are built as one batch, and all transitions as another
     (:class:`~cadpipe.geometry.rings.Tubes`): a chain of a thousand pipes costs a few numpy
     calls per stage, not a few per pipe.
     """
-    if not pipes:
-        raise InputError("splice: expected at least one Pipe, got none")
-    for i, p in enumerate(pipes):
-        if not isinstance(p, Pipe):
-            raise InputError(f"splice: argument {i} is a {type(p).__name__}, not a cadpipe.Pipe")
-        if p.closed:
-            raise InputError(f"splice: pipe {i} is a closed loop and has no ends to join")
+    pipes = chain_members(pipes)
     transition = as_choice(transition, "transition", TRANSITIONS)
+    closed = as_flag(closed, "closed")
     if len(pipes) == 1 and not closed:
         return pipes[0].mesh().with_parts(["pipe0"])
-    before, after = _junctions(len(pipes), closed)
-    pipes, tubes = _room_for_transitions(list(pipes), tubes_of(pipes), before, after)
-    for i, problems in enumerate(tubes.self_intersection_findings()):
-        if problems:
-            raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}")
-    sides = tubes.sides
-    n3 = np.lcm(sides[before], sides[after]) if transition == "lcm" else sides[after]
-    bridges = _transition_tubes(tubes, before, after, n3)
-    for k, problems in enumerate(bridges.self_intersection_findings()):
-        if problems:
-            raise GeometryError(f"splice: the transition{before[k]} would intersect itself: "
-                                f"{problems[0]}; move the pipes apart or align their ends")
+    plan = make_room(pipes, closed, transition)
+    return chain_mesh(plan.pipes, plan.joint, transition, closed, tubes=plan.tubes,
+                      bridges=plan.bridges)
 
-    surface = Surface()
-    last = len(pipes) - 1
-    ends = add_pipe_surfaces(surface, tubes, pipes, parts=[surface.part(f"pipe{i}")
-                                                           for i in range(len(pipes))],
-                             cap_start=[i == 0 and not closed for i in range(len(pipes))],
-                             cap_end=[i == last and not closed for i in range(len(pipes))])
-    _add_transitions(surface, bridges, before, after, ends, sides, transition)
-    vertices, faces, face_part = surface.build()
-    return Mesh.trusted(vertices, faces, face_part=face_part, part_names=surface.part_names,
-                        attributes={"kind": "chain", "parts": len(surface.part_names)})
+
+def chain_members(pipes):
+    """``pipes`` as a list if it is a non-empty sequence of open :class:`Pipe` values;
+    else an :class:`InputError` with ``key="pipes"`` and the index."""
+    if not pipes:
+        raise InputError("expected at least one Pipe, got none", key="pipes")
+    for i, p in enumerate(pipes):
+        if not isinstance(p, Pipe):
+            raise InputError(f"argument {i} is a {type(p).__name__}, not a cadpipe.Pipe",
+                             key="pipes", index=i)
+        if p.closed:
+            raise InputError(f"pipe {i} is a closed loop and has no ends to join",
+                             key="pipes", index=i)
+    return list(pipes)
 
 
 def _junctions(count, closed):
@@ -95,10 +112,54 @@ def _junctions(count, closed):
     return before, (before + 1) % count
 
 
-def make_room(pipes, closed=False):
-    """The pipes, those whose ends touch trimmed to leave room for a transition (as
-    :func:`splice` does, so other chains can follow the same ends)."""
-    return _room_for_transitions(pipes, tubes_of(pipes), *_junctions(len(pipes), closed))[0]
+@dataclass(frozen=True)
+class ChainPlan:
+    """How a chain's pipes are joined.
+
+    Attributes
+    ----------
+    pipes : list of Pipe
+        The pipes, those whose ends touch trimmed to leave room for a transition.
+    joint : (J,) bool array
+        Per junction (pipe i to pipe i + 1, and the last to the first in a closed
+        chain): True where a ball joint replaces a transition that would fold.
+    tubes, bridges : Tubes
+        The pipes' batch (caps aside, what :func:`chain_mesh` builds them from) and
+        the transitions' (None without any).
+    """
+
+    pipes: list
+    joint: np.ndarray
+    tubes: Tubes
+    bridges: Tubes | None
+
+
+def make_room(pipes, closed=False, transition="lcm"):
+    """The :class:`ChainPlan` of a chain: which junctions get transitions, for which
+    touching ends give up a little length, and which get ball joints (ends as given).
+
+    Other chains along the same ends (a hollow chain's bores) follow the same plan.
+    """
+    before, after = _junctions(len(pipes), closed)
+    # a safety envelope's ends stay where they are: touching ends get a ball joint
+    envelope = np.array([p.envelope for p in pipes])
+    joint = _touching(tubes_of(pipes), before, after) & (envelope[before] | envelope[after])
+    while True:
+        trimmed, tubes = _room_for_transitions(pipes, tubes_of(pipes), before[~joint],
+                                               after[~joint])
+        _check_pipes(tubes)
+        bridges, bent = _transition_tubes(tubes, before[~joint], after[~joint], transition,
+                                          check=True)
+        if not bent.any():
+            return ChainPlan(trimmed, joint, tubes, bridges)
+        joint[np.flatnonzero(~joint)[bent]] = True
+
+
+def _check_pipes(tubes):
+    for i, problems in enumerate(tubes.self_intersection_findings()):
+        if problems:
+            raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}",
+                                key="pipes", index=i)
 
 
 def _room_for_transitions(pipes, tubes, before, after):
@@ -106,34 +167,133 @@ def _room_for_transitions(pipes, tubes, before, after):
 
     Returns the pipes and their batch, rebuilt if any pipe was trimmed.
     """
-    groups = tubes.groups
-    end, start = groups.last[before], groups.first[after]
-    gap = norm(tubes.lines.xyz[:, start] - tubes.lines.xyz[:, end], 0)
-    room = np.minimum(tubes.ring_radii[end], tubes.ring_radii[start])
-    touching = gap < 0.5 * room
+    touching = _touching(tubes, before, after)
     if not touching.any():
         return pipes, tubes
     trim = np.zeros((len(pipes), 2))
+    groups = tubes.groups
+    room = np.minimum(tubes.ring_radii[groups.last[before]], tubes.ring_radii[groups.first[after]])
     trim[before[touching], 1] = trim[after[touching], 0] = 0.5 * room[touching]
     pipes = [p.trimmed(*t) if t.any() else p for p, t in zip(pipes, trim)]
     return pipes, tubes_of(pipes)
 
 
-def _transition_tubes(tubes, before, after, sides):
-    """The transitions from each pipe's end to the next one's start, as one batch.
+def _touching(tubes, before, after):
+    """(J,) junctions whose ends are closer than half the smaller end radius: no room for
+    a transition between them."""
+    groups = tubes.groups
+    end, start = groups.last[before], groups.first[after]
+    gap = norm(tubes.lines.xyz[:, start] - tubes.lines.xyz[:, end], 0)
+    return gap < 0.5 * np.minimum(tubes.ring_radii[end], tubes.ring_radii[start])
+
+
+def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridges=None):
+    """The solid of a chain whose junctions are planned (:func:`make_room`): stitched
+    pipes and transitions, or, where a joint joins them or pieces cross, the union
+    of the pieces.
+
+    ``bore_of``: ``(outer pipes, wall)`` when ``pipes`` are the bores of those (a
+    hollow chain's): each bore transition then lies ``wall`` inside the outer one
+    across its faces (see :func:`_transition_tubes`). ``tubes``, ``bridges``: the
+    pipes' and transitions' batches if already made (:class:`ChainPlan`; caps do not
+    change them)."""
+    strict = any(getattr(p, "strict", False) for p in pipes)
+    before, after = _junctions(len(pipes), closed)
+    last = len(pipes) - 1
+    cap_start = [(i == 0 and not closed) for i in range(len(pipes))]
+    cap_end = [(i == last and not closed) for i in range(len(pipes))]
+    for b, a in zip(before[joint].tolist(), after[joint].tolist()):
+        cap_end[b] = cap_start[a] = True
+    pipes = [_flat_at(p, cap_start[i] and not (i == 0 and not closed),
+                      cap_end[i] and not (i == last and not closed))
+             for i, p in enumerate(pipes)]
+    tubes = tubes_of(pipes) if tubes is None else tubes
+    sides = tubes.sides
+    outer = None
+    if bore_of is not None:
+        outer_tubes = tubes_of(bore_of[0])
+        outer = (outer_tubes.ring_radii[outer_tubes.groups.last[before[~joint]]],
+                 outer_tubes.ring_radii[outer_tubes.groups.first[after[~joint]]], bore_of[1])
+    if bridges is None:
+        bridges = _transition_tubes(tubes, before[~joint], after[~joint], transition,
+                                    outer)[0]
+
+    surface = Surface()
+    ends = add_pipe_surfaces(surface, tubes, pipes, parts=[surface.part(f"pipe{i}")
+                                                           for i in range(len(pipes))],
+                             cap_start=cap_start, cap_end=cap_end)
+    if bridges is not None:
+        _add_transitions(surface, bridges, before[~joint], after[~joint], ends, sides,
+                         transition)
+    balls = [surface.part(f"joint{b}") for b in before[joint].tolist()]
+    vertices, faces, face_part = surface.build()
+    attributes = {"kind": "chain", "parts": len(surface.part_names)}
+    crossing = [] if joint.any() else _crossing_pieces(
+        _chain_axes(tubes, bridges, before, pipes, closed, surface), closed)
+    if not crossing and not joint.any():
+        return Mesh.trusted(vertices, faces, face_part=face_part,
+                            part_names=surface.part_names, attributes=attributes)
+    names = surface.part_names
+    joined = [f"pipe{b} and pipe{a} (a ball joint)"
+              for b, a in zip(before[joint].tolist(), after[joint].tolist())]
+    merged = [f"{names[i]} and {names[j]} (they cross)" for i, j in crossing] + joined
+    if strict:
+        raise GeometryError(f"splice: {merged[0]}" + (f" (and {len(merged) - 1} more)"
+                                                      if len(merged) > 1 else "")
+                            + "; move the pipes apart, or build the union (strict=False "
+                            "on every pipe)", key="pipes", fix={"strict": False})
+    if bridges is not None:
+        cuts = _cuts(tubes, bridges, before[~joint], after[~joint], ends, sides, surface)
+        vertices, faces, face_part = _close_cuts(vertices, faces, face_part, cuts)
+    joints = [_ball_joint(tubes, b, a) for b, a in zip(before[joint].tolist(),
+                                                        after[joint].tolist())]
+    return united(vertices, faces, face_part, names, joints, balls,
+                  {**attributes, "merged": "; ".join(merged)})
+
+
+def _flat_at(pipe, start, end):
+    """``pipe`` with flat caps at the ends a ball joint holds (a round cap there would
+    run along the ball's surface)."""
+    styles = tuple("flat" if at else c for c, at in zip(pipe.cap_styles, (start, end)))
+    return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
+
+
+def _transition_tubes(tubes, before, after, transition, outer=None, check=False):
+    """The transitions from each pipe's end to the next one's start, as one batch, and
+    which of them would fold.
 
     Each follows a cubic Hermite curve tangent to both pipes, its radius eased from
     one to the other; its frames start from the first pipe's end ring and end on the
     second's start ring (up to a whole ``2*pi/sides`` step). Its end rings are the
     pipes' own, so only its inner rings are used.
+
+    ``outer``: ``(outer end radii, outer start radii, wall)`` for the bores of a hollow
+    chain: each inner ring is then also at least ``wall`` inside the outer
+    transition's across its faces: ``wall / cos(pi / n)`` for the fewest sides n of the
+    two pipes and the transition, over the cosine of the outer transition's taper.
+
+    Returns
+    -------
+    bridges : Tubes or None
+        None when there are no junctions, or some transition is too short for its
+        rings.
+    bent : (J,) bool array
+        Transitions that have no room, and with ``check`` those that would cut
+        through themselves.
     """
+    if not len(before):
+        return None, np.zeros(0, bool)
     lines, groups = tubes.lines, tubes.groups
+    sides = tubes.sides
+    sides = np.lcm(sides[before], sides[after]) if transition == "lcm" else sides[after]
     end, start = groups.last[before], groups.first[after]
     e, s = lines.xyz[:, end], lines.xyz[:, start]
     t1, t2 = lines.directions[:, end], lines.directions[:, start]
     chord = norm(s - e, 0)
     r1, r2 = tubes.ring_radii[end], tubes.ring_radii[start]
-    rings = RINGS_PER_RADIUS * chord / np.minimum(r1, r2)
+    # a bore's transition has its outer one's rings, so their faces stay parallel
+    rings = RINGS_PER_RADIUS * chord / (np.minimum(r1, r2) if outer is None
+                                        else np.minimum(outer[0], outer[1]))
     limits.check("max_triangles", float(np.sum(2 * rings * sides)),
                  f"the transitions across gaps of up to {chord.max():.6g}", key="pipes")
     count = np.maximum(MIN_RINGS + 1, np.ceil(rings).astype(np.int64))
@@ -149,16 +309,78 @@ def _transition_tubes(tubes, before, after, sides):
     ease = 3 * u**2 - 2 * u**3
     radii = spread(r1) + spread(r2 - r1) * ease
     bridges = Polylines(points, curves)
+    if outer is not None:
+        radii = np.minimum(radii, _bore_radii(bridges, outer[0], outer[1],
+                                              (tubes.sides[before], tubes.sides[after]), ease,
+                                              outer[2] * envelope_factor(np.minimum(
+                                                  sides, np.minimum(tubes.sides[before],
+                                                                    tubes.sides[after])))))
     extent = np.max(np.maximum.reduceat(points, curves.first, axis=1)
                     - np.minimum.reduceat(points, curves.first, axis=1), axis=0)
     tolerance = 1e-9 * np.maximum(extent, 1.0)                  # as Path drops duplicates
     is_segment = np.ones(len(u), bool)
     is_segment[curves.last] = False
-    if (is_segment & (bridges.segment_lengths <= spread(tolerance))).any():
-        raise GeometryError("splice: the transition is too short for its rings; "
-                            "leave more room between the pipes")
-    return Tubes(bridges, radii, sides, tubes.miter_limit[before],
-                 normals=tubes.normals[:, end].T, end_normals=tubes.normals[:, start].T)
+    short = np.logical_or.reduceat(is_segment & (bridges.segment_lengths <= spread(tolerance)),
+                                   curves.first)
+    if short.any():
+        return None, short
+    bridges = Tubes(bridges, radii, sides, tubes.miter_limit[before],
+                    normals=tubes.normals[:, end].T, end_normals=tubes.normals[:, start].T)
+    if not check:
+        return bridges, short
+    bent = np.array([bool(f) for f in bridges.self_intersection_findings()])
+    return bridges, bent | _ends_fold(bridges, t1, t2)
+
+
+def _bore_radii(bridges, r1, r2, sides, ease, inset):
+    """(N,) ring radii ``inset`` (per transition) inside the outer transition eased from
+    ``r1`` to ``r2``, more by the cosine of its taper (the steeper segment at each
+    ring), as :func:`cadpipe.solids.hollow.inset` does along a pipe."""
+    groups = bridges.groups
+    outer = groups.spread(r1) + groups.spread(r2 - r1) * ease
+    slope = np.abs(groups.following(outer) - outer) / np.where(
+        bridges.segment_lengths > 0, bridges.segment_lengths, 1.0)
+    slope[groups.last] = slope[groups.last - 1]
+    steepest = np.maximum(slope, np.r_[slope[:1], slope[:-1]])
+    steepest[groups.first] = slope[groups.first]
+    # the stitches from a pipe's n-gon to the transition's rings lean from the pipe's
+    # flat faces (inradius) out to the transition's vertices
+    for inner, pipe_radius, pipe_sides, segment in ((groups.first + 1, r1, sides[0],
+                                                     groups.first),
+                                                    (groups.last - 1, r2, sides[1],
+                                                     groups.last - 1)):
+        lean = np.abs(outer[inner] - pipe_radius * np.cos(np.pi / pipe_sides)) \
+            / bridges.segment_lengths[segment]
+        steepest[inner] = np.maximum(steepest[inner], lean)
+    return outer - groups.spread(inset) * np.hypot(1.0, steepest)
+
+
+def _ends_fold(bridges, t1, t2):
+    """(J,) True where a pipe's end ring (square to ``t1``, or ``t2`` at the far end) and
+    the transition's nearest inner ring would meet inside the tube: the transition's
+    own check sees rings square to its first and last segments there instead.
+
+    Across a segment of direction d and length L, a ring plane of normal n sits at
+    an axial offset ``y . g`` for a lateral offset y, ``g = (n - (n . d) d) / (n . d)``;
+    the two planes meet inside radius rho when ``rho |g_a - g_b| >= L`` (as
+    :mod:`~cadpipe.geometry.clearance` checks inside a tube), or when either ring
+    faces backwards (``n . d <= 0``).
+    """
+    lines, groups = bridges.lines, bridges.groups
+    reach = bridges.ring_radii * bridges.miter_stretch
+    bent = np.zeros(len(groups), bool)
+    for segment, inner, normal_a, normal_b in (
+            (groups.first, groups.first + 1, t1, None),
+            (groups.last - 1, groups.last - 1, None, t2)):
+        d = lines.directions[:, segment]
+        a = lines.tangents[:, inner] if normal_a is None else normal_a
+        b = lines.tangents[:, inner] if normal_b is None else normal_b
+        da, db = np.einsum("ij,ij->j", a, d), np.einsum("ij,ij->j", b, d)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lean = norm((a - da * d) / da - (b - db * d) / db, 0)
+        bent |= (da <= 1e-9) | (db <= 1e-9) | ~(reach[inner] * lean
+                                                 < lines.segment_lengths[segment] * (1 - 1e-9))
+    return bent
 
 
 def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
@@ -195,3 +417,188 @@ def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
     surface.add_faces(int((n_a + n_b).sum()), lambda out: np.copyto(
         out, zipper_faces(a_start, n_a, b_start, n_b, offset)),
                       np.repeat(labels.astype(np.int32), n_a + n_b))
+
+
+# -- pieces against each other --------------------------------------------------------
+def _chain_axes(tubes, bridges, before, pipes, closed, surface):
+    """The chain's pieces in order along it (pipe 0, transition 0, pipe 1, ...): per
+    piece its part index, axis points ``(n, 3)`` and reach ``(n,)`` (how far its
+    surface lies from each point: ring radius times miter stretch, and at the chain's
+    ends the hypotenuse with the cap's reach)."""
+    pieces = []
+    for lines, groups, radii, names in (
+            (tubes.lines, tubes.groups, tubes.ring_radii * tubes.miter_stretch,
+             [f"pipe{i}" for i in range(len(pipes))]),
+            (bridges.lines, bridges.groups, bridges.ring_radii * bridges.miter_stretch,
+             [f"transition{b}" for b in before.tolist()])):
+        for name, lo, hi in zip(names, groups.first.tolist(), groups.last.tolist()):
+            pieces.append([surface.part(name), lines.xyz[:, lo:hi + 1].T, radii[lo:hi + 1]])
+    if not closed:
+        for row, reach in ((0, pipes[0].cap_reach[0]), (-1, pipes[-1].cap_reach[1])):
+            piece = pieces[0 if row == 0 else len(pipes) - 1]
+            piece[2] = piece[2].copy()
+            piece[2][row] = np.hypot(piece[2][row], reach)
+    order = np.empty(len(pieces), np.int64)            # pipes and transitions interleaved
+    order[0::2] = np.arange(len(pipes))
+    order[1::2] = len(pipes) + np.arange(len(before))
+    return [pieces[i] for i in order.tolist()]
+
+
+def _crossing_pieces(pieces, closed):
+    """``[(i, j)]`` parts ``i < j`` whose tubes may cut through each other.
+
+    Each piece is a chain of segments, each held by the capsule of its ends' larger
+    reach. Broad phase: boxes of runs of segments (about a reach long), through a
+    box hierarchy; narrow phase: the distance between the segments of boxes that
+    meet. Segments of different pieces count when they come closer than their
+    reaches' sum while lying at least ``pi/2`` times that sum apart along the chain:
+    nearer ones are neighbours across a junction, kept apart by the checks of each
+    piece and of each transition's ends (a tube that bends no tighter than its
+    radius cannot come back to itself within half a turn).
+    """
+    from cadpipe.solids.intersect import box_pairs
+
+    part = np.concatenate([np.full(len(p) - 1, k) for k, (_, p, _) in enumerate(pieces)])
+    a = np.concatenate([p[:-1] for _, p, _ in pieces])
+    b = np.concatenate([p[1:] for _, p, _ in pieces])
+    radius = np.concatenate([np.maximum(r[:-1], r[1:]) for _, _, r in pieces])
+    length = norm(b - a)
+    arc = np.cumsum(length) - length                       # each segment's start along the chain
+    total = float(length.sum())
+    # runs of segments about a reach long (at least one), per piece
+    reach = np.array([float(r.min()) for _, _, r in pieces])[part]
+    run_key = part * (1 << 31) + np.floor((arc - arc[np.searchsorted(part, part)])
+                                          / reach).astype(np.int64)
+    first = np.flatnonzero(np.r_[True, run_key[1:] != run_key[:-1]])
+    pad = np.maximum.reduceat(radius, first)
+    thin = np.minimum.reduceat(radius, first)
+    stop = np.r_[first[1:], len(a)]
+    span = np.c_[arc[first], arc[stop - 1] + length[stop - 1]]   # each run along the chain
+    lo = np.minimum.reduceat(np.minimum(a, b), first, axis=0) - pad[:, None]
+    hi = np.maximum.reduceat(np.maximum(a, b), first, axis=0) + pad[:, None]
+    found = set()
+    for pairs in box_pairs(lo, hi):
+        pairs = pairs[part[first[pairs[:, 0]]] != part[first[pairs[:, 1]]]]
+        # runs whose farthest segments lie nearer along the chain than the least
+        # distance that counts hold no pair that counts
+        farthest = np.maximum(span[pairs[:, 1], 1] - span[pairs[:, 0], 0],
+                              span[pairs[:, 0], 1] - span[pairs[:, 1], 0])
+        pairs = pairs[farthest >= 0.5 * np.pi * (thin[pairs[:, 0]] + thin[pairs[:, 1]])]
+        if not len(pairs):
+            continue
+        # every segment of one run against every segment of the other
+        size_i, size_j = (stop - first)[pairs[:, 0]], (stop - first)[pairs[:, 1]]
+        count = size_i * size_j
+        row = np.repeat(np.arange(len(pairs)), count)
+        k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        i = first[pairs[row, 0]] + k // size_j[row]
+        j = first[pairs[row, 1]] + k % size_j[row]
+        apart = np.abs(arc[i] - arc[j])
+        if closed:
+            apart = np.minimum(apart, total - apart)
+        near = _segment_distance(a[i], b[i], a[j], b[j]) < radius[i] + radius[j]
+        hit = near & (apart - length[np.where(arc[i] < arc[j], i, j)]
+                      >= 0.5 * np.pi * (radius[i] + radius[j]))
+        found.update(zip(part[i[hit]].tolist(), part[j[hit]].tolist()))
+    return sorted({tuple(sorted((pieces[p][0], pieces[q][0]))) for p, q in found})
+
+
+def _segment_distance(p0, p1, q0, q1):
+    """(K,) distance between segments ``p0-p1`` and ``q0-q1`` (each (K, 3))."""
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e = np.einsum("ij,ij->i", d1, d1), np.einsum("ij,ij->i", d2, d2)
+    b, c, f = (np.einsum("ij,ij->i", d1, d2), np.einsum("ij,ij->i", d1, r),
+               np.einsum("ij,ij->i", d2, r))
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(denom > 1e-12 * a * e, np.clip((b * f - c * e) / denom, 0, 1), 0.0)
+        t = np.where(e > 0, (b * s + f) / e, 0.0)
+        s = np.where(t < 0, np.where(a > 0, np.clip(-c / a, 0, 1), 0.0),
+                     np.where(t > 1, np.where(a > 0, np.clip((b - c) / a, 0, 1), 0.0), s))
+    t = np.clip(t, 0, 1)
+    return norm(p0 + s[:, None] * d1 - q0 - t[:, None] * d2)
+
+
+def _cuts(tubes, bridges, before, after, ends, sides, surface):
+    """Where stitched pieces are cut apart for a union: per junction with a transition,
+    the pipe's end ring (pipe, then transition) and the next pipe's start ring
+    (transition, then pipe). Rows: ring start vertex, sides, centre, tangent, cone
+    depth, upstream part, downstream part."""
+    lines, groups = tubes.lines, tubes.groups
+    b_lines, b_groups = bridges.lines, bridges.groups
+    cuts = []
+    for k, (b, a) in enumerate(zip(before.tolist(), after.tolist())):
+        transition, pipe_b, pipe_a = (surface.part(f"transition{b}"), surface.part(f"pipe{b}"),
+                                      surface.part(f"pipe{a}"))
+        for ring, row, pipe_seg, bridge_seg, up, down in (
+                (ends[1][b], groups.last[b], groups.last[b] - 1, b_groups.first[k],
+                 pipe_b, transition),
+                (ends[0][a], groups.first[a], groups.first[a], b_groups.last[k] - 1,
+                 transition, pipe_a)):
+            n = int(sides[b if up == pipe_b else a])
+            depth = min(CUT_DEPTH * float(tubes.ring_radii[row]),
+                        0.25 * float(lines.segment_lengths[pipe_seg]),
+                        0.25 * float(b_lines.segment_lengths[bridge_seg]))
+            cuts.append((int(ring), n, lines.xyz[:, row], lines.tangents[:, row], depth, up,
+                         down))
+    return cuts
+
+
+def _close_cuts(vertices, faces, face_part, cuts):
+    """The stitched surface with each cut ring closed twice: a cone reaching ``depth``
+    forward into the downstream piece closes the upstream one, and one reaching back
+    closes the downstream one, so the pieces overlap rather than share a face."""
+    apexes = np.array([centre + sign * depth * tangent for _, _, centre, tangent, depth, *_
+                       in cuts for sign in (1.0, -1.0)]).reshape(-1, 3)
+    first = len(vertices)
+    fans, labels = [], []
+    for k, (ring, n, _, _, _, up, down) in enumerate(cuts):
+        for j, (part, at_end) in enumerate(((up, True), (down, False))):
+            fans.append(fan_faces(ring, n, apex=first + 2 * k + j, at_end=at_end))
+            labels.append(np.full(n, part, np.int32))
+    return (np.concatenate([vertices, apexes]), np.concatenate([faces, *fans]),
+            np.concatenate([face_part, *labels]))
+
+
+def _unit_ball():
+    """(V, 3) icosphere vertices scaled so that its faces lie outside the unit sphere:
+    the hull of it scaled by r about a point contains the ball of radius r there."""
+    import trimesh
+
+    sphere = trimesh.creation.icosphere(subdivisions=BALL_SUBDIVISIONS)
+    inradius = float(np.min(np.einsum("ij,ij->i", sphere.face_normals,
+                                      sphere.vertices[sphere.faces[:, 0]])))
+    return np.asarray(sphere.vertices) / inradius
+
+
+def _ball_joint(tubes, b, a):
+    """(P, 3) points whose hull joins pipe ``b``'s end to pipe ``a``'s start: a ball of
+    each end ring's radius about each end point."""
+    groups = tubes.groups
+    rows = [groups.last[b], groups.first[a]]
+    ball = _unit_ball()
+    return np.concatenate([tubes.lines.xyz[:, row] + float(tubes.ring_radii[row]) * ball
+                           for row in rows])
+
+
+def united(vertices, faces, face_part, names, hulls, hull_parts, attributes):
+    """The union through manifold3d of the closed pieces of a surface (its faces by part)
+    and of the convex hulls of ``hulls`` (point sets, parts ``hull_parts``), faces
+    still labelled by the piece they came from."""
+    import manifold3d
+
+    from cadpipe.solids.booleans import reserve_ids
+
+    ids = list(reserve_ids(len(names)))
+    order = np.argsort(face_part, kind="stable")
+    bounds = np.searchsorted(face_part[order], np.arange(len(names) + 1))
+    solids = []
+    for k in np.flatnonzero(np.diff(bounds) > 0).tolist():
+        used, local = np.unique(faces[order[bounds[k]:bounds[k + 1]]], return_inverse=True)
+        solids.append(Mesh.trusted(vertices[used], local.reshape(-1, 3))
+                      .to_manifold(names[k], ids[k]))
+    for points, k in zip(hulls, hull_parts):
+        hull = Mesh.from_manifold(manifold3d.Manifold.hull_points(points))
+        solids.append(hull.to_manifold(names[k], ids[k]))
+    solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+    return Mesh.from_manifold(solid, dict(zip(ids, names)), attributes=attributes)

@@ -12,27 +12,30 @@ ends run a little past the pipe, so the cut leaves no skin.
 import dataclasses
 import warnings
 from dataclasses import dataclass
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
 
 from cadpipe import _deprecated
-from cadpipe._validate import as_choice, as_positive
+from cadpipe._validate import as_choice, as_flag, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe, envelope_factor
-from cadpipe.geometry.splice import TRANSITIONS
+from cadpipe.geometry.splice import TRANSITIONS, chain_members
 
 END_STYLES = ("open", "closed")
+#: most times a bore's round closed end is pulled back to fit inside the outer cap
+ROOM_STEPS = 8
 
 
 def _ends(ends):
     """``(start, end)`` styles from one style or a pair."""
-    pair = (ends, ends) if isinstance(ends, str) else tuple(ends)
+    pair = (ends, ends) if isinstance(ends, str) else tuple(ends) \
+        if isinstance(ends, (tuple, list)) else ()
     if len(pair) != 2:
         raise InputError(f"expected 'open', 'closed' or a pair of them, got {ends!r}", key="ends")
     return tuple(as_choice(e, "ends", END_STYLES) for e in pair)
@@ -57,13 +60,29 @@ def mouths(pipe, start="open", end="open"):
     return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
 
+def inset(pipe, wall):
+    """(N,) how much smaller each bore ring is than ``pipe``'s so that every flat face of
+    the bore lies ``wall`` inside the outer face parallel to it: ``wall / cos(pi /
+    sides)`` (the ring's vertices are farther out than its faces), divided by the
+    cosine of the taper where the radius changes along the path (a frustum's face
+    leans by its taper angle; take the steeper segment at each ring)."""
+    slope = np.abs(np.diff(pipe.ring_radii)) / pipe.path.segment_lengths[:len(pipe.path) - 1]
+    if pipe.closed:
+        slope = np.append(slope, abs(pipe.ring_radii[0] - pipe.ring_radii[-1])
+                          / pipe.path.segment_lengths[-1])
+        steepest = np.maximum(slope, np.roll(slope, 1))
+    else:
+        steepest = np.maximum(np.r_[slope[:1], slope], np.r_[slope, slope[-1:]])
+    return wall * envelope_factor(pipe.sides) * np.hypot(1.0, steepest)
+
+
 def bore(pipe, wall, start="open", end="open"):
     """The :class:`Pipe` cut out of ``pipe`` (an outer pipe, see :func:`mouths`) to
     leave walls ``wall`` thick across the flat faces.
 
     Same path, sides, frames and caps, rings aligned with the outer rings and
-    ``wall / cos(pi / sides)`` smaller, so each flat face of the bore lies ``wall``
-    inside the outer face parallel to it (the vertices are farther apart). Per end:
+    :func:`inset` smaller, so each flat face of the bore lies ``wall`` inside the
+    outer face parallel to it, on tapers too (the vertices are farther apart). Per end:
     ``"open"`` runs the bore ``wall`` past the outer solid's end, ``"closed"`` stops it
     ``wall`` short of a flat cap (a round cap gets its own round cap inside),
     ``"flush"`` ends it with the pipe (where a splice continues it).
@@ -73,7 +92,10 @@ def bore(pipe, wall, start="open", end="open"):
            else reach - wall if style == "flat" else 0.0
            for e, style, reach in zip(ends, pipe.cap_styles, pipe.cap_reach)]
     path = pipe.path
-    radii = pipe.ring_radii - wall * envelope_factor(pipe.sides)
+    radii = pipe.ring_radii - inset(pipe, wall)
+    if radii.min() <= 0:
+        raise InputError(f"{wall:g} leaves no bore where the pipe tapers steeply (path point "
+                         f"{int(np.argmin(radii))}); use a thinner wall", key="wall")
     extend = [max(r, 0.0) for r in run]
     if any(extend):
         head = [path.points[0] - extend[0] * path.directions[0]] if extend[0] else []
@@ -83,12 +105,53 @@ def bore(pipe, wall, start="open", end="open"):
     inner = pipe.replace(path=path, radius=radii, sides=pipe.sides, envelope=False,
                          normal=pipe.normals[0])
     cut = [max(-r, 0.0) for r in run]
+    for k, (e, style) in enumerate(zip(ends, pipe.cap_styles)):
+        if e == "closed" and style == "round" and not pipe.closed:
+            # on a taper the pulled-back cap has another radius: pull again until it fits
+            for _ in range(ROOM_STEPS):
+                trimmed = inner.trimmed(*[cut[k] if j == k else 0.0 for j in range(2)])
+                room = _round_end_room(pipe, trimmed, wall, -1 if k == 0 else 1)
+                if room <= 1e-9 * wall:
+                    break
+                cut[k] += room
     if not any(cut):
         return inner
     if sum(cut) >= path.length:
         raise InputError(f"closed ends {wall:g} thick leave no bore in a pipe "
                          f"{path.length:g} long; use a thinner wall or open ends", key="wall")
     return inner.trimmed(*cut)
+
+
+def _cap_points(pipe, sign):
+    """(K, 3) vertices of ``pipe``'s round cap at one end (``sign`` -1: start), its
+    end ring included."""
+    from cadpipe.geometry.pipe import cap_axes
+    from cadpipe.geometry.rings import ring_basis
+
+    row = 0 if sign < 0 else len(pipe.path) - 1
+    axes, pole = cap_axes(pipe._tubes, row, sign, pipe, "round")
+    rings = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
+    return np.concatenate([pipe.rings()[row], rings, pole[None]])
+
+
+def _round_end_room(outer, inner, wall, sign):
+    """How far to pull a bore's round cap back from a closed round end of ``outer`` so
+    that it lies ``wall`` inside every face of the outer cap.
+
+    Both caps are convex; the bore's cap vertices must lie ``wall`` inside each
+    outer cap face's plane (outward normal n, facing along the end tangent t by
+    ``n . t > 0``); moving the bore back by ``d`` gains ``d (n . t)``.
+    """
+    from scipy.spatial import ConvexHull
+
+    t = sign * outer.path.directions[0 if sign < 0 else -1]
+    hull = ConvexHull(_cap_points(outer, sign))
+    normal, offset = hull.equations[:, :3], -hull.equations[:, 3]
+    facing = normal @ t
+    caps = facing > 1e-9
+    bore_points = _cap_points(inner, sign)
+    need = (bore_points @ normal[caps].T).max(axis=0) - offset[caps] + wall
+    return float(max(0.0, (need / facing[caps]).max()))
 
 
 class Hollow:
@@ -104,6 +167,9 @@ def _members(args, kind, name, keyword):
     """The members of a Junction or HollowChain: given as arguments (``splice``'s
     convention), or, deprecated, as one list."""
     if keyword is not None:
+        if not isinstance(keyword, (list, tuple)):
+            raise InputError(f"expected a list of pipes, got {type(keyword).__name__}",
+                             key="pipes")
         return tuple(keyword)
     if len(args) == 1 and not isinstance(args[0], kind) and hasattr(args[0], "__iter__"):
         warnings.warn(f"{name}([...]) with a list is deprecated: pass the pipes as arguments, "
@@ -199,27 +265,57 @@ class Junction(Hollow):
     ``Junction(*hollow_pipes)``: the union of every outer solid minus the union of
     every bore, so each bore runs through the others' walls and the channels
     connect. Give an end that meets another pipe ``ends="open"`` so its bore reaches
-    into that pipe's bore. (A single list, ``Junction([a, b])``, still works for this
-    release, with a :class:`DeprecationWarning`.)
+    into that pipe's bore. Pipes may cross anywhere: the unions make one solid, and
+    where a bore crosses another pipe the channels meet. (A single list,
+    ``Junction([a, b])``, still works for this release, with a
+    :class:`DeprecationWarning`.)
+
+    Parameters
+    ----------
+    *hollow_pipes : HollowPipe
+        The branches, one or more.
+    pipes : sequence of HollowPipe, optional
+        The branches as one sequence instead (what :meth:`replace` passes).
     """
 
     pipes: tuple[HollowPipe, ...]
 
-    def __init__(self, *hollow_pipes: HollowPipe, pipes=None):
+    def __init__(self, *hollow_pipes: HollowPipe,
+                 pipes: Sequence[HollowPipe] | None = None) -> None:
         members = _members(hollow_pipes, HollowPipe, "Junction", pipes)
-        if not members or not all(isinstance(p, HollowPipe) for p in members):
-            raise InputError("expected one or more cadpipe.HollowPipe", key="pipes")
+        if not members:
+            raise InputError("expected one or more cadpipe.HollowPipe, got none", key="pipes")
+        for i, p in enumerate(members):
+            if not isinstance(p, HollowPipe):
+                raise InputError(f"argument {i} is a {type(p).__name__}, not a "
+                                 "cadpipe.HollowPipe", key="pipes", index=i)
         object.__setattr__(self, "pipes", members)
 
-    def replace(self, **changes) -> "Junction":
-        """This junction with some settings changed (``pipes=`` a sequence)."""
+    def replace(self, **changes: Any) -> "Junction":
+        """This junction with some settings changed.
+
+        Parameters
+        ----------
+        **changes
+            ``pipes=``: a new sequence of :class:`HollowPipe`.
+
+        Returns
+        -------
+        junction : Junction
+        """
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return f"<cadpipe.Junction of {len(self.pipes)} hollow pipes>"
 
-    def solids(self):
-        """``(outer meshes, bore meshes)`` of every pipe."""
+    def solids(self) -> tuple[list[Mesh], list[Mesh]]:
+        """What an assembly adds and what it cuts.
+
+        Returns
+        -------
+        solids, bores : list of Mesh
+            Every pipe's outer mesh, and every pipe's bore mesh.
+        """
         outer, bores = zip(*(p.solids() for p in self.pipes))
         return [m for ms in outer for m in ms], [m for ms in bores for m in ms]
 
@@ -240,9 +336,27 @@ class HollowChain(Hollow):
     bores. The pipes first give up room for the transitions the way
     :func:`~cadpipe.splice` does, so both chains splice between the same end points
     and tangents and each bore transition runs inside its outer one, ``wall`` in
-    from it. ``ends`` applies to the chain's two ends; a closed chain has none. (The
+    from it; where a ball joint joins two pipes (see :func:`~cadpipe.splice`) the bore
+    has a ball joint ``wall`` smaller, and where pieces cross, both chains are their
+    pieces' unions, so the bores of crossing pipes meet as a junction's do. ``ends``
+    applies to the chain's two ends; a closed chain has none. (The
     0.1 form ``HollowChain([p, q], wall, ...)`` still works for this release, with a
     :class:`DeprecationWarning`.)
+
+    Parameters
+    ----------
+    *args : Pipe
+        The pipes, open, in order along the chain.
+    pipes : sequence of Pipe, optional
+        The pipes as one sequence instead (what :meth:`replace` passes).
+    wall : float
+        Wall thickness in metres, across the flat faces (see :class:`HollowPipe`).
+    ends : {"open", "closed"} or pair of them
+        The chain's two ends (see :class:`HollowPipe`).
+    transition : {"lcm", "merge"}
+        As for :func:`~cadpipe.splice`.
+    closed : bool
+        Also join the last pipe's end to the first pipe's start.
     """
 
     pipes: tuple[Pipe, ...]
@@ -251,17 +365,16 @@ class HollowChain(Hollow):
     transition: str = "lcm"
     closed: bool = False
 
-    def __init__(self, *args, pipes=None, wall=None, ends="open", transition="lcm",
-                 closed=False):
+    def __init__(self, *args: Pipe, pipes: Sequence[Pipe] | None = None,
+                 wall: float | None = None, ends: str | tuple[str, str] = "open",
+                 transition: str = "lcm", closed: bool = False) -> None:
         if pipes is None and args and not isinstance(args[0], Pipe) \
                 and hasattr(args[0], "__iter__"):
             old = dict(zip(("wall", "ends", "transition", "closed"), args[1:]))
             args = args[:1]
             wall, ends = old.get("wall", wall), old.get("ends", ends)
             transition, closed = old.get("transition", transition), old.get("closed", closed)
-        members = _members(args, Pipe, "HollowChain", pipes)
-        if not members or not all(isinstance(p, Pipe) for p in members):
-            raise InputError("expected one or more cadpipe.Pipe", key="pipes")
+        members = tuple(chain_members(_members(args, Pipe, "HollowChain", pipes)))
         if wall is None:
             raise InputError("give the wall thickness: HollowChain(*pipes, wall=...)", key="wall")
         set_ = partial(object.__setattr__, self)
@@ -269,20 +382,38 @@ class HollowChain(Hollow):
         set_("wall", _wall(wall, members))
         set_("ends", _ends(ends))
         set_("transition", as_choice(transition, "transition", TRANSITIONS))
-        set_("closed", bool(closed))
+        set_("closed", as_flag(closed, "closed"))
 
-    def replace(self, **changes) -> "HollowChain":
-        """This chain with some settings changed (``pipes=`` a sequence)."""
+    def replace(self, **changes: Any) -> "HollowChain":
+        """This chain with some settings changed.
+
+        Parameters
+        ----------
+        **changes
+            New values of ``pipes`` (a sequence), ``wall``, ``ends``, ``transition``,
+            ``closed``.
+
+        Returns
+        -------
+        chain : HollowChain
+        """
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return f"<cadpipe.HollowChain of {len(self.pipes)} pipes, wall {self.wall:g}>"
 
-    def solids(self):
-        """``([spliced outer pipes], [spliced bores])``."""
-        from cadpipe.geometry.splice import make_room, splice
+    def solids(self) -> tuple[list[Mesh], list[Mesh]]:
+        """What an assembly adds and what it cuts.
 
-        outers = make_room(list(self.pipes), self.closed)
+        Returns
+        -------
+        solids, bores : list of Mesh
+            ``[the spliced outer pipes]`` and ``[the spliced bores]``.
+        """
+        from cadpipe.geometry.splice import chain_mesh, make_room
+
+        plan = make_room(list(self.pipes), self.closed, self.transition)
+        outers = list(plan.pipes)
         last = len(outers) - 1
         open_ends = not self.closed
         if open_ends:
@@ -291,8 +422,11 @@ class HollowChain(Hollow):
         bores = [bore(p, self.wall, self.ends[0] if i == 0 and open_ends else "flush",
                       self.ends[1] if i == last and open_ends else "flush")
                  for i, p in enumerate(outers)]
-        options = {"transition": self.transition, "closed": self.closed}
-        return [splice(*outers, **options)], [splice(*bores, **options)]
+        if len(outers) == 1 and not self.closed:
+            return [outers[0].mesh()], [bores[0].mesh()]
+        options = {"joint": plan.joint, "transition": self.transition, "closed": self.closed}
+        return ([chain_mesh(outers, **options, tubes=plan.tubes, bridges=plan.bridges)],
+                [chain_mesh(bores, **options, bore_of=(outers, self.wall))])
 
     @property
     def attributes(self) -> Mapping[str, Any]:
