@@ -29,6 +29,7 @@ import numba
 import numpy as np
 
 from cadpipe._validate import as_points
+from cadpipe.collision.bounds import box_levels
 from cadpipe.collision.capsules import Chain, round_cone_at, round_cone_distance
 from cadpipe.errors import InputError
 
@@ -114,13 +115,7 @@ class SegmentTree:
         reach = np.full(leaves, -np.inf)
         lo[:count], hi[:count] = np.minimum(a, b), np.maximum(a, b)
         reach[:count] = np.maximum(chain.start_radii, chain.end_radii)
-        levels = [(lo, hi, reach)]
-        while len(levels[-1][0]) > 1:        # each level up: the union of two children
-            lo, hi, reach = levels[-1]
-            levels.append((np.minimum(lo[0::2], lo[1::2]), np.maximum(hi[0::2], hi[1::2]),
-                           np.maximum(reach[0::2], reach[1::2])))
-        self.lo, self.hi, self.reach = (np.concatenate([level[k] for level in levels[::-1]])
-                                        for k in range(3))
+        self.lo, self.hi, self.reach = box_levels(lo, hi, reach)
 
 
 class _Centreline:

@@ -847,6 +847,15 @@ class CollisionWorld(Scene):
         return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
                                      containment)[0])
 
+    def collide_at(self, a, b, pose_a, pose_b):
+        """Whether ``a`` placed at ``pose_a`` and ``b`` at ``pose_b`` (rigid 4x4 poses)
+        touch or one contains the other: one pose of one pair, as a fixture or a
+        planner asks, straight to the exact test (the verdict :meth:`check` gives
+        the pair there); where they stand is unchanged."""
+        i, j = self._find(a), self._find(b)
+        return bool(narrow.collide(self._bodies[i], as_pose(pose_a, a)[None], self._bodies[j],
+                                   as_pose(pose_b, b)[None])[0][0])
+
     def separate(self, a, b, step_degrees=None):
         """See :meth:`Checker.separate`."""
         return self.checker.separate(a, b, step_degrees)
