@@ -7,7 +7,7 @@ import pytest
 
 from cadpipe import InputError, Path, Pipe
 from cadpipe.collision import Robot
-from cadpipe.collision.fixture import locate
+from cadpipe.collision.fixture import leaves, locate
 
 PANDA = FilePath(__file__).parent.parent / "assets" / "robots" / "panda"
 
@@ -89,6 +89,46 @@ def test_locate_agrees_with_world_inside_and_moves_with_the_pipe():
         locate(pipe.mesh(), points)
     with pytest.raises(InputError, match="not finite"):
         locate(pipe, [[0.0, np.nan, 0.0]])
+
+
+def test_leaves_finds_where_an_ordered_path_first_leaves():
+    centres = _helix(60)
+    pipe = Pipe(Path(centres), radius=np.linspace(0.06, 0.1, len(centres)))
+    rng = np.random.default_rng(5)
+    kinds = []
+    for trial in range(20):
+        # a wandering tool path: along the whole helix the straight moves cut its
+        # bends; along a short stretch they stay inside unless noise carries a point out
+        span = len(centres) - 1 if trial % 2 else 4.0
+        at = np.sort(rng.uniform(0, span, 12)) + rng.uniform(0, len(centres) - 1 - span)
+        k = at.astype(int)
+        base = centres[k] + (at - k)[:, None] * (centres[np.minimum(k + 1, len(centres) - 1)]
+                                                  - centres[k])
+        path = base + rng.normal(0, 0.005 + 0.01 * (trial % 3), base.shape)
+        found = leaves(pipe, path)
+        kinds.append("inside" if found.all_inside else "between" if found.inside[0]
+                     else "first")
+        np.testing.assert_allclose(found.signed_distance, locate(pipe, path).signed_distance,
+                                   atol=1e-12)
+        # the reference: the path sampled densely, each sample against every segment
+        t = np.linspace(0.0, 1.0, 400)
+        dense = (path[:-1, None] + t[:, None] * (path[1:] - path[:-1])[:, None]).reshape(-1, 3)
+        wall = _reference(dense, centres, pipe.ring_radii)[3]
+        # sampled balls under-cover a cone by a hair: outside by more than that is outside
+        out = np.flatnonzero(wall > 1e-3)
+        if found.all_inside:
+            assert out.size == 0
+            continue
+        exit_at = found.exit_segment + found.exit_fraction
+        sample_at = np.repeat(np.arange(len(path) - 1), len(t)) + np.tile(t, len(path) - 1)
+        assert out.size and sample_at[out[0]] >= exit_at - 1e-9
+        # just past the exit the tool is outside
+        k, f = found.exit_segment, min(found.exit_fraction + 1e-6, 1.0)
+        after = path[k] + f * (path[k + 1] - path[k])
+        assert locate(pipe, after[None]).signed_distance[0] > 0 or f == 1.0
+    assert kinds.count("inside") >= 3 and kinds.count("between") >= 3, kinds
+    with pytest.raises(InputError, match="expected a cadpipe Pipe"):
+        leaves(pipe.mesh(), path)
 
 
 @pytest.fixture(scope="module")

@@ -183,20 +183,12 @@ class Body:
         return pseudo_normals(self.mesh)
 
     @cached_property
-    def fcl_units(self):
-        """FCL objects of the chain's units, one per unit: each the capsule (or ball)
-        of the unit's larger end radius, exact for untapered units; and their
-        poses in the body's frame (FCL's capsule is centred on its z axis)."""
-        import fcl
+    def triangle_tree(self):
+        """The :class:`~cadpipe.collision.chain_mesh.TriangleTree` of the mesh (meshes
+        only), walked against chains."""
+        from cadpipe.collision.chain_mesh import TriangleTree
 
-        from cadpipe.collision.narrow import unit_poses
-
-        chain = self.chain
-        length = np.linalg.norm(chain.ends - chain.starts, axis=1)
-        radius = np.maximum(chain.start_radii, chain.end_radii)
-        shapes = [fcl.Capsule(r, h) if h > 0 else fcl.Sphere(r) for r, h in zip(radius, length)]
-        return [fcl.CollisionObject(g, fcl.Transform()) for g in shapes], \
-            unit_poses(chain.starts, chain.ends)
+        return TriangleTree(self.mesh.vertices, self.mesh.faces)
 
 
 def as_body(obj, name):

@@ -112,6 +112,13 @@ class CapsuleTree:
         self.chord = self.points[self.p1] - self.start
         self.chord_sq = np.einsum("ij,ij->i", self.chord, self.chord)
         self.inv_chord_sq = inverse(self.chord_sq)
+        # the walk's view, packed so one call passes few arrays (numba's dispatch
+        # costs about half a microsecond per array argument): per node start, chord,
+        # chord_sq, its inverse, inner, outer; and p0, p1, the leaf's unit (-1 above)
+        self.table = np.column_stack([self.start, self.chord, self.chord_sq,
+                                      self.inv_chord_sq, self.inner, self.outer])
+        self.index = np.column_stack([self.p0, self.p1, np.r_[np.full(size - len(leaves), -1),
+                                                              self.unit]])
 
 
 def _heap_runs(count, depth):
@@ -169,10 +176,9 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     room = 64 * len(poses)
     while True:
         left = np.empty((room, 3), np.int64)         # (pose, unit of a, unit of b)
-        count = _walk_kernel(ta.start, ta.chord, ta.chord_sq, ta.inv_chord_sq, ta.inner,
-                             ta.outer, ta.unit, ta.depth, tb.points, tb.p0, tb.p1, tb.chord_sq,
-                             tb.inv_chord_sq, tb.inner, tb.outer, tb.unit, tb.depth, poses,
-                             cap, stop_below is not None, gap, units, params, left)
+        count = _walk_kernel(ta.table, ta.index, ta.depth, tb.points, tb.table, tb.index,
+                             tb.depth, poses, cap, stop_below is not None, gap, units, params,
+                             left)
         if count >= 0:
             break
         room *= 4
@@ -181,10 +187,10 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
 
 
 @numba.njit(cache=True, nogil=True)
-def _walk_kernel(start_a, chord_a, chord_sq_a, inv_a, inner_a, outer_a, unit_a, depth_a,
-                 points_b, p0_b, p1_b, chord_sq_b, inv_b, inner_b, outer_b, unit_b, depth_b,
-                 poses, cap, yes_no, gap, units, params, left):
-    """Walk both trees in lockstep for each pose, depth first.
+def _walk_kernel(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b, poses, cap,
+                 yes_no, gap, units, params, left):
+    """Walk both trees in lockstep for each pose, depth first (``table``, ``index``:
+    :class:`CapsuleTree`'s packed nodes).
 
     Per node pair: the chords' closest points (Ericson's clamping, as
     :func:`segment_params`), ``dist``; ``dist - inner - inner`` bounds the gap
@@ -213,11 +219,12 @@ def _walk_kernel(start_a, chord_a, chord_sq_a, inv_a, inner_a, outer_a, unit_a, 
         while top:
             top -= 1
             na, nb = stack_a[top], stack_b[top]
-            q0 = moved[p0_b[nb]]
-            v = moved[p1_b[nb]] - q0
-            u = chord_a[na]
-            rx, ry, rz = start_a[na, 0] - q0[0], start_a[na, 1] - q0[1], start_a[na, 2] - q0[2]
-            uu, vv = chord_sq_a[na], chord_sq_b[nb]
+            fa, fb = table_a[na], table_b[nb]
+            q0 = moved[index_b[nb, 0]]
+            v = moved[index_b[nb, 1]] - q0
+            u = fa[3:6]
+            rx, ry, rz = fa[0] - q0[0], fa[1] - q0[1], fa[2] - q0[2]
+            uu, vv = fa[6], fb[6]
             uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
             ur = u[0] * rx + u[1] * ry + u[2] * rz
             vr = v[0] * rx + v[1] * ry + v[2] * rz
@@ -226,13 +233,13 @@ def _walk_kernel(start_a, chord_a, chord_sq_a, inv_a, inner_a, outer_a, unit_a, 
             s = 0.0
             if den > 1e-14 * square:
                 s = min(max((uv * vr - ur * vv) / max(den, 1e-300), 0.0), 1.0)
-            t = min(max((uv * s + vr) * inv_b[nb], 0.0), 1.0)
-            s = min(max((uv * t - ur) * inv_a[na], 0.0), 1.0)
+            t = min(max((uv * s + vr) * fb[7], 0.0), 1.0)
+            s = min(max((uv * t - ur) * fa[7], 0.0), 1.0)
             dx, dy, dz = rx + s * u[0] - t * v[0], ry + s * u[1] - t * v[1], \
                 rz + s * u[2] - t * v[2]
             dist = np.sqrt(dx * dx + dy * dy + dz * dz)
-            upper = dist - inner_a[na] - inner_b[nb]
-            lower = dist - outer_a[na] - outer_b[nb]
+            upper = dist - fa[8] - fb[8]
+            lower = dist - fa[9] - fb[9]
             bound = min(bound, max(upper, 0.0))
             if yes_no and bound <= cap:
                 break
@@ -240,8 +247,8 @@ def _walk_kernel(start_a, chord_a, chord_sq_a, inv_a, inner_a, outer_a, unit_a, 
                 continue
             leaf_a, leaf_b = na >= leaves_a, nb >= leaves_b
             if leaf_a and leaf_b:
-                ua, ub = unit_a[na - leaves_a], unit_b[nb - leaves_b]
-                if inner_a[na] == outer_a[na] and inner_b[nb] == outer_b[nb]:
+                ua, ub = index_a[na, 2], index_b[nb, 2]
+                if fa[8] == fa[9] and fb[8] == fb[9]:
                     if lower < best:                 # capsules: the gap is exact
                         best = lower
                         units[p, 0], units[p, 1], params[p, 0], params[p, 1] = ua, ub, s, t

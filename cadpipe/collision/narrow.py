@@ -5,9 +5,10 @@
   cross -- so when it reports no contact, one probe point per connected piece
   of each mesh is tested against the other with the generalized winding number.
 * chain vs chain: :mod:`cadpipe.collision.capsules`, in closed form.
-* chain vs mesh: each chain unit as an FCL capsule against the mesh's BVH
-  (a unit lying inside the mesh is caught by the probe test; a mesh inside a
-  unit is caught by FCL, which treats the capsule as solid).
+* chain vs mesh: the chain's capsule tree against a box tree of the mesh's
+  triangles, one compiled walk (:mod:`cadpipe.collision.chain_mesh`; a unit
+  lying inside the mesh is caught by the probe test, a mesh inside a unit by
+  the walk, which treats the capsule as solid).
 
 Every pair is evaluated in the mesh's own frame, so a BVH is built once per
 body and never refitted. Touching counts as contact.
@@ -19,6 +20,7 @@ import numba
 import numpy as np
 
 from cadpipe.geometry.mesh import winding_numbers
+from cadpipe.collision import chain_mesh
 from cadpipe.collision.bounds import KDOP_DIRECTIONS
 from cadpipe.collision.hierarchy import chain_gaps
 
@@ -139,26 +141,6 @@ def _barycentric(q, corners):
     return np.array([1.0 - v - w, v, w])
 
 
-def unit_poses(starts, ends):
-    """4x4 poses placing FCL's z-aligned, centred capsule on each unit."""
-    axis = ends - starts
-    length = np.linalg.norm(axis, axis=1, keepdims=True)
-    d = np.where(length > 0, axis / np.where(length > 0, length, 1.0), [0.0, 0.0, 1.0])
-    c = d[:, 2]
-    v = np.stack([-d[:, 1], d[:, 0], np.zeros(len(d))], axis=1)     # z x d
-    k = np.zeros((len(d), 3, 3))
-    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -v[:, 2], v[:, 1], -v[:, 0]
-    k -= np.transpose(k, (0, 2, 1))
-    flipped = c < -1.0 + 1e-12
-    scale = np.where(flipped, 0.0, 1.0 / np.where(flipped, 1.0, 1.0 + c))
-    rot = np.eye(3) + k + np.einsum("kij,kjl->kil", k, k) * scale[:, None, None]
-    rot[flipped] = np.diag([1.0, -1.0, -1.0])
-    poses = np.tile(np.eye(4), (len(d), 1, 1))
-    poses[:, :3, :3] = rot
-    poses[:, :3, 3] = 0.5 * (starts + ends)
-    return poses
-
-
 # -- yes / no ---------------------------------------------------------------------
 def collide(body_a, poses_a, body_b, poses_b):
     """Do two bodies touch at each of E placements ``poses_a``, ``poses_b`` (E, 4, 4)?
@@ -175,17 +157,23 @@ def collide(body_a, poses_a, body_b, poses_b):
     if body_a.kind == "chain":
         body_a, poses_a, body_b, poses_b = body_b, poses_b, body_a, poses_a
     rel = relative(poses_a, poses_b)
-    touching = (_mesh_mesh if body_b.kind == "mesh" else _mesh_chain)(body_a, body_b, rel)
+    touching = _mesh_mesh(body_a, body_b, rel) if body_b.kind == "mesh" else \
+        _mesh_chain(body_a, body_b, rel, True)[0] <= 0.0
     contained = np.zeros(len(rel), bool)
     apart = (~touching).nonzero()[0]
-    # no boundaries cross: one solid is inside the other exactly when a probe is
     if apart.size:
-        contained[apart] = _inside(body_a, body_b, rel[apart])
-        rest = apart[~contained[apart]]
-        if body_b.kind == "mesh" and rest.size:
-            contained[rest] = _inside(body_b, body_a, relative(rel[rest], np.repeat(
-                _EYE[None], rest.size, axis=0)))      # the inverses (no broadcasting: slow)
+        contained[apart] = _contained(body_a, body_b, rel[apart])
     return touching | contained, contained
+
+
+def _contained(mesh_body, other, rel):
+    """(E,) whether, at each of ``rel`` (E, 4, 4) where no boundaries cross, one solid
+    lies inside the other: exactly when a probe does."""
+    contained = _inside(mesh_body, other, rel)
+    rest = (~contained).nonzero()[0]
+    if other.kind == "mesh" and rest.size:
+        contained[rest] = _inside(other, mesh_body, relative(rel[rest], _EYE))
+    return contained
 
 
 _EYE = np.eye(4)
@@ -263,51 +251,18 @@ def _mesh_mesh(body_a, body_b, rel):
     return touching
 
 
-def _near_units(mesh_body, chain_body, rel):
-    """``(entry, unit)`` index pairs whose unit's bounding ball reaches the mesh's
-    box, entry by entry, with each unit's FCL pose in the mesh's frame."""
-    centre, radius = chain_body.chain.unit_spheres
-    lo, hi = mesh_body.mesh.bounds
-    entry = np.empty(len(rel) * len(centre), np.int64)
-    unit = np.empty(len(entry), np.int64)
-    found = _balls_reaching_box(rel, centre, radius, lo, hi, entry, unit)
-    entry, unit = entry[:found], unit[:found]
-    return entry, unit, rel[entry] @ chain_body.fcl_units[1][unit]
-
-
-@_jit
-def _balls_reaching_box(rel, centre, radius, lo, hi, entry, unit):
-    """Write the (entry, ball) pairs whose ball, moved by ``rel[entry]``, reaches the
-    box ``lo``, ``hi``; returns how many."""
-    count = 0
-    for e in range(len(rel)):
-        m = rel[e]
-        for u in range(len(centre)):
-            gap = 0.0
-            for r in range(3):
-                v = m[r, 0] * centre[u, 0] + m[r, 1] * centre[u, 1] + m[r, 2] * centre[u, 2] \
-                    + m[r, 3]
-                out = v - min(max(v, lo[r]), hi[r])
-                gap += out * out
-            if gap <= radius[u] * radius[u]:
-                entry[count], unit[count] = e, u
-                count += 1
-    return count
-
-
-def _mesh_chain(mesh_body, chain_body, rel):
-    import fcl
-
-    request = _yes_no()
-    objects = chain_body.fcl_units[0]
-    touching = np.zeros(len(rel), bool)
-    for e, unit, pose in zip(*_near_units(mesh_body, chain_body, rel)):
-        if touching[e]:
-            continue
-        objects[unit].setTransform(_transform(pose))
-        touching[e] = fcl.collide(mesh_body.fcl_anchor, objects[unit], request,
-                                  fcl.CollisionResult()) > 0
-    return touching
+def _mesh_chain(mesh_body, chain_body, rel, yes_no):
+    """:func:`cadpipe.collision.chain_mesh.walk` of the chain at each of ``rel``
+    (E, 4, 4) in the mesh's frame: ``(gap, unit, point on the unit's axis, point on
+    the mesh)``, the points in the mesh's frame."""
+    mesh, chain = mesh_body.triangle_tree, chain_body.chain.tree
+    count = len(rel)
+    gap, unit = np.empty(count), np.empty(count, np.int64)
+    near, far = np.full((count, 3), np.nan), np.full((count, 3), np.nan)
+    chain_mesh.walk(mesh.boxes, mesh.triangles, mesh.depth, chain.table, chain.index,
+                    chain.points, chain.depth, np.ascontiguousarray(rel), yes_no, gap, unit,
+                    near, far)
+    return gap, unit, near, far
 
 
 # -- clearance ----------------------------------------------------------------------
@@ -332,7 +287,7 @@ def distance(body_a, pose_a, body_b, pose_b, containment=True):
     else:
         dist, pa, pb = _mesh_chain_distance(body_a, body_b, rel)
     decided = "fcl"
-    if containment and dist > 0 and collide(body_a, _EYE[None], body_b, rel[None])[0][0]:
+    if containment and dist > 0 and _contained(body_a, body_b, rel[None])[0]:
         dist, pa, pb, decided = 0.0, None, None, "containment"
     if dist <= 0:
         return 0.0, None, None, decided
@@ -356,34 +311,12 @@ def _fcl_distance(object_a, object_b):
 
 
 def _mesh_chain_distance(mesh_body, chain_body, rel):
-    """Smallest FCL distance from the mesh to a chain unit, units visited nearest
-    box first and stopped once no remaining unit's box can be closer.
-
-    FCL reports the mesh's nearest point reliably (in the mesh's frame); the
-    chain's is recomputed as the unit surface point facing it.
-    """
-    chain = chain_body.chain.moved(rel)
-    lo, hi = mesh_body.mesh.bounds
-    ub = chain.unit_bounds
-    lower = np.linalg.norm(np.maximum(np.maximum(lo - ub[:, 1], ub[:, 0] - hi), 0.0), axis=1)
-    order = np.argsort(lower, kind="stable")
-    objects, local = chain_body.fcl_units
-    best, best_unit = (np.inf, None, None), None
-    for unit in order:
-        if lower[unit] >= best[0]:
-            break
-        objects[unit].setTransform(_transform(rel @ local[unit]))
-        found = _fcl_distance(mesh_body.fcl_anchor, objects[unit])
-        if found[0] < best[0]:
-            best, best_unit = found, unit
-        if best[0] <= 0:
-            break
-    dist, mesh_point = best[0], best[1]
-    if dist <= 0:
-        return dist, None, None
-    a, b = chain.starts[best_unit], chain.ends[best_unit]
-    axis = b - a
-    t = np.clip(np.dot(mesh_point - a, axis) / max(np.dot(axis, axis), 1e-300), 0.0, 1.0)
-    centre = a + t * axis
-    towards = mesh_point - centre
-    return dist, mesh_point, mesh_point - dist * towards / np.linalg.norm(towards)
+    """Exact distance from the mesh to the chain's capsules at ``rel`` (4, 4) (one
+    walk), the mesh's nearest point and the capsule surface point facing it, in
+    the mesh's frame."""
+    gap, _, axis_point, mesh_point = (v[0] for v in _mesh_chain(mesh_body, chain_body,
+                                                                 rel[None], False))
+    if gap <= 0:
+        return float(gap), None, None
+    towards = mesh_point - axis_point
+    return float(gap), mesh_point, mesh_point - gap * towards / np.linalg.norm(towards)

@@ -946,6 +946,28 @@ class CollisionWorld(Scene):
         return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
                                      containment)[0])
 
+    def collide_at(self, a: str, b: str, pose_a: np.ndarray, pose_b: np.ndarray) -> bool:
+        """Whether ``a`` placed at ``pose_a`` and ``b`` at ``pose_b`` touch, or one
+        contains the other: one pose of one pair, as a fixture or a planner asks,
+        straight to the exact test (the verdict :meth:`check` gives the pair there);
+        where they stand is unchanged.
+
+        Parameters
+        ----------
+        a, b : str
+            The objects.
+        pose_a, pose_b : (4, 4) array
+            Rigid poses to place them at.
+
+        Returns
+        -------
+        bool
+            True when they collide there.
+        """
+        i, j = self._find(a), self._find(b)
+        return bool(narrow.collide(self._bodies[i], as_pose(pose_a, a)[None], self._bodies[j],
+                                   as_pose(pose_b, b)[None])[0][0])
+
     def separate(self, a: str, b: str,
                  step_degrees: float | None = None) -> "Certificate | None":
         """The source's separation certificate for two objects where they stand.

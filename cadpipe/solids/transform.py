@@ -1,5 +1,6 @@
 """4x4 placement matrices from the shorthand people write: translate, rotate, scale."""
 
+import numba
 import numpy as np
 
 from cadpipe.errors import InputError
@@ -39,15 +40,16 @@ def as_matrix(value, key="transform", *, part=None, stack=False, rigid=False):
         raise fail(f"expected a 4x4 matrix of numbers, got {value!r}") from None
     if matrix.shape[-2:] != (4, 4) or (not stack and matrix.ndim != 2):
         raise fail(f"expected a finite 4x4 matrix, got shape {matrix.shape}")
-    if not np.isfinite(matrix).all():
+    problem = _problem(matrix.reshape(-1, 4, 4), rigid)
+    if problem == _NOT_FINITE:
         raise fail("expected a finite 4x4 matrix, got NaN or infinite entries")
-    if not np.allclose(matrix[..., 3, :], [0, 0, 0, 1]):
+    if problem == _NOT_AFFINE:
         raise fail("the last row must be 0 0 0 1 (an affine placement), got "
                    f"{matrix[..., 3, :].tolist()}")
-    if rigid and not is_rigid(matrix):
+    if problem == _NOT_RIGID:
         raise fail("must be rigid (a rotation and a translation); scale or mirror the mesh "
                    "itself instead")
-    if (np.abs(np.linalg.det(matrix[..., :3, :3])) < 1e-12).any():
+    if problem == _FLAT:
         raise fail("the matrix flattens space (determinant 0)")
     return matrix
 
@@ -55,11 +57,51 @@ def as_matrix(value, key="transform", *, part=None, stack=False, rigid=False):
 def is_rigid(matrix):
     """Whether a 4x4 ``matrix`` (or every one of a stack) only rotates and translates
     (no scale, shear or mirror)."""
-    m = np.asarray(matrix)
-    rot = m[..., :3, :3]
-    return bool(np.abs(m[..., 3, :] - (0.0, 0.0, 0.0, 1.0)).max(initial=0.0) <= 1e-9
-                and np.abs(np.swapaxes(rot, -1, -2) @ rot - np.eye(3)).max(initial=0.0) <= 1e-6
-                and np.all(np.linalg.det(rot) > 0))
+    m = np.asarray(matrix, np.float64)
+    if m.shape[-2:] != (4, 4) or not np.isfinite(m).all():
+        return False
+    return _problem(np.ascontiguousarray(m).reshape(-1, 4, 4), True) == 0
+
+
+#: what :func:`_problem` finds first in a stack of matrices (0: nothing)
+_NOT_FINITE, _NOT_AFFINE, _NOT_RIGID, _FLAT = 1, 2, 3, 4
+
+
+@numba.njit(cache=True, nogil=True)
+def _problem(matrices, rigid):
+    """The first failing check over all of ``matrices`` (M, 4, 4), in the order
+    :func:`as_matrix` reports them: finite entries; a last row of ``0 0 0 1``
+    (as ``np.allclose``); with ``rigid``, that row within 1e-9, ``R^T R`` within
+    1e-6 of the identity and ``det R > 0``; ``|det R| >= 1e-12``. One compiled
+    pass: a pose set per call costs no numpy calls on tiny arrays."""
+    for m in matrices:
+        for r in range(4):
+            for c in range(4):
+                if not np.isfinite(m[r, c]):
+                    return _NOT_FINITE
+    last = (0.0, 0.0, 0.0, 1.0)
+    for m in matrices:
+        for c in range(4):
+            if abs(m[3, c] - last[c]) > 1e-8 + 1e-5 * abs(last[c]):
+                return _NOT_AFFINE
+    for m in matrices:
+        det = m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]) \
+            - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0]) \
+            + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
+        if rigid:
+            for c in range(4):
+                if abs(m[3, c] - last[c]) > 1e-9:
+                    return _NOT_RIGID
+            for i in range(3):
+                for j in range(3):
+                    v = m[0, i] * m[0, j] + m[1, i] * m[1, j] + m[2, i] * m[2, j]
+                    if abs(v - (1.0 if i == j else 0.0)) > 1e-6:
+                        return _NOT_RIGID
+            if not det > 0:
+                return _NOT_RIGID
+        if abs(det) < 1e-12:
+            return _FLAT
+    return 0
 
 
 def _three(value, name):
