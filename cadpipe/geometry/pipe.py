@@ -6,6 +6,7 @@ pieces a splice needs (rings, frames) are public, so a transition between two
 pipes is built from the same rings the pipes themselves use.
 """
 
+import warnings
 from functools import cached_property, partial
 
 import numpy as np
@@ -15,6 +16,7 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
+from cadpipe.geometry.clearance import JOINT_STEP
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis
@@ -72,22 +74,32 @@ class Pipe:
         Largest allowed stretch ``1/cos(turn/2)`` of a mitered ring (default 4, as SVG).
     cap_segments : int, optional
         Latitude steps of a round cap (default ``max(2, sides // 4)``).
-    repair : bool
-        If the tube would intersect itself, build the solid as a manifold3d union of
-        its convex units instead of raising :class:`GeometryError`.
+    strict : bool
+        False (default): where the tube would overlap itself (a fold, a return, a
+        corner beyond ``miter_limit``), :meth:`mesh` builds the swept solid there, the
+        manifold3d union of that stretch's convex units (a corner beyond the miter
+        limit becomes a ball joint); ``mesh().attributes["merged"]`` lists the merged
+        stretches. True: raise :class:`GeometryError` naming the place instead.
+    repair : bool, optional
+        Deprecated alias: ``repair=True`` is the default, ``repair=False`` is
+        ``strict=True``.
     """
 
     def __init__(self, path, radius, sides=None, *, caps="flat", envelope=False, tolerance=None,
                  frame="rmf", normal=None, end_normal=None, corners="miter", bend_radius=None,
                  miter_limit=4.0,
-                 cap_segments=None, repair=False):
+                 cap_segments=None, strict=False, repair=None):
         source = path if isinstance(path, Path) else Path(path)
         radii = as_positive(radius, "radius", count=len(source))
         self.caps = as_choice(caps, "caps", CAP_STYLES)
         self.frame = as_choice(frame, "frame", FRAME_MODES)
         self.corners = as_choice(corners, "corners", CORNER_STYLES)
         self.envelope = bool(envelope)
-        self.repair = bool(repair)
+        if repair is not None:
+            warnings.warn("Pipe(repair=...) is deprecated: overlaps are merged by default; "
+                          "pass strict=True to refuse them", DeprecationWarning, stacklevel=2)
+            strict = not repair
+        self.strict = bool(strict)
         self.normal = normal
         self.end_normal = end_normal
         self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
@@ -120,7 +132,7 @@ class Pipe:
         self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
                               frame=self.frame, normal=normal, end_normal=end_normal,
                               miter_limit=self.miter_limit, cap_segments=self.cap_segments,
-                              repair=self.repair)
+                              strict=self.strict)
         self.path = source
         self.radii = np.array(radii, dtype=np.float64)
         self.radii.flags.writeable = False
@@ -193,31 +205,40 @@ class Pipe:
                 "envelope": self.envelope, "frame": self.frame, "corners": self.corners}
 
     # -- checks and mesh -----------------------------------------------------
-    def self_intersections(self):
-        """Where the tube would cut through itself: a list of human-readable findings.
+    def folds(self):
+        """Where the tube would cut through itself: a
+        :class:`~cadpipe.geometry.clearance.Folds` (false when the tube is clean).
 
-        Checks miter limits, rings that overlap within a segment (the radius exceeds
-        the local bend radius) and non-neighbouring parts of the tube closer than
-        the sum of their radii.
+        Checks, cheapest first, miter limits, rings that overlap within a segment
+        (the radius exceeds the local bend radius) and stretches apart along the
+        path that come closer than the tube reaches there, miter tips included.
         """
-        return self._tubes.self_intersections()[0]
+        return self._tubes.folds()[0]
+
+    def self_intersections(self):
+        """Where the tube would cut through itself: a list of human-readable findings."""
+        return list(self.folds().messages)
 
     def mesh(self):
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
 
-        Raises :class:`GeometryError` if the tube intersects itself, unless the pipe
-        was made with ``repair=True``.
+        A clean tube is its rings stitched together. Where it would overlap itself the
+        result is the swept solid instead (see ``strict``): the clean stretches as
+        they are, united through manifold3d with the convex units of the stretches
+        that overlap; ``attributes["merged"]`` names them. With ``strict=True`` such a
+        tube raises :class:`GeometryError` naming the place.
         """
-        problems = self.self_intersections()
-        if problems:
-            if not self.repair:
-                raise GeometryError(f"the pipe intersects itself: {problems[0]}"
-                                    + (f" (and {len(problems) - 1} more)" if len(problems) > 1
-                                       else "")
-                                    + "; smooth the path, reduce the radius, or pass repair=True")
-            return self._repaired_mesh()
-        vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-        return Mesh.trusted(vertices, faces, attributes=self.attributes())
+        folds = self._tubes.folds(first_only=self.strict)[0]
+        if not folds:
+            vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
+            return Mesh.trusted(vertices, faces, attributes=self.attributes())
+        if self.strict:
+            problems = folds.messages
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
+                                "path, reduce the radius, or leave strict=False to build the "
+                                "swept solid there", key="strict")
+        return self._swept_mesh(folds)
 
     def surface(self, *, cap_start=True, cap_end=True):
         """Vertices and faces of the side surface plus the requested end caps.
@@ -241,26 +262,158 @@ class Pipe:
         units overlap instead of merely touching (booleans treat touching solids as
         apart).
         """
-        rings = self.rings()
-        cur = np.arange(len(self.path.segments))
-        nxt = (cur + 1) % len(rings)
-        shift = overlap * self.path.directions[:, None, :]
-        pieces = list(np.concatenate([rings[cur] - shift, rings[nxt] + shift], axis=1))
-        if not self.closed and self.caps == "round":
-            for row, sign in ((0, -1), (len(rings) - 1, 1)):
-                axes, pole = cap_axes(self._tubes, row, sign, self)
-                cap = np.matmul(ring_basis(self.sides), axes).reshape(-1, 3)
-                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
-        return pieces
+        return _units(self, np.arange(len(self.path.segments)), (), overlap)
 
-    def _repaired_mesh(self):
-        """Union of the convex units through manifold3d: valid even where the tube folds."""
+    def _swept_mesh(self, folds):
+        """The tube with each stretch that folds replaced by the union of its convex
+        units (:func:`_units`), the clean stretches kept as they are, all united by
+        manifold3d and welded at float32 precision (:func:`weld_manifold`)."""
         import manifold3d
 
-        overlap = 1e-6 * float(self.ring_radii.max())
-        hulls = [manifold3d.Manifold.hull_points(p) for p in self.units(overlap)]
-        solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
-        return Mesh.from_manifold(solid, attributes={**self.attributes(), "repaired": True})
+        merged = np.zeros(len(self.path.segments), bool)
+        merged[folds.segments] = True
+        overlap = OVERLAP * float(self.ring_radii.max())
+        solids = [manifold3d.Manifold.hull_points(p)
+                  for p in _units(self, folds.segments, folds.joints, overlap)]
+        solids += [self._piece(a, b).to_manifold("pipe") for a, b in _runs(~merged, self.closed)]
+        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+        stretches = _runs(merged, self.closed)
+        arc = self.path.arc_length
+        spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
+                                     else self.path.length)) for a, b in stretches]
+        names = "; ".join(f"path points {a}..{(b + 1) % len(arc)} (arc length {s:.6g} to "
+                          f"{e:.6g})" for (a, b), (s, e) in zip(stretches, spans))
+        return Mesh.from_manifold(weld_manifold(solid), attributes={
+            **self.attributes(), "merged": names,
+            "merged_arc_lengths": tuple(x for span in spans for x in span),
+            "folds": folds.messages[0]})
+
+    def _piece(self, first, last):
+        """The closed solid of the clean segments ``first..last`` (wrapping around a
+        closed pipe): their rings, flat caps where the stretch is cut, the pipe's own
+        caps at its ends."""
+        n = len(self.path)
+        rows = np.arange(first, first + (last - first) % len(self.path.segments) + 2) % n
+        axes = self._tubes.axes[rows].copy()
+        if self.closed:                            # rings past the seam carry its shift
+            alpha = 2 * np.pi * self.seam_shift / self.sides
+            past = np.flatnonzero(np.diff(rows) < 0)
+            if past.size:
+                after = slice(int(past[0]) + 1, None)
+                a0, a1 = axes[after, 0].copy(), axes[after, 1].copy()
+                axes[after, 0] = np.cos(alpha) * a0 + np.sin(alpha) * a1
+                axes[after, 1] = np.cos(alpha) * a1 - np.sin(alpha) * a0
+        own = self.caps == "round" and not self.closed
+        start = cap_axes(self._tubes, 0, -1, self) if own and rows[0] == 0 else None
+        end = cap_axes(self._tubes, n - 1, +1, self) if own and rows[-1] == n - 1 else None
+        runs = [axes if start is None else np.concatenate([start[0][::-1], axes]),]
+        if end is not None:
+            runs[0] = np.concatenate([runs[0], end[0]])
+        surface = Surface()
+        ring = int(surface.add_rings(runs, [self.sides])[0])
+        for cap, at, at_end in ((start, ring, False),
+                                (end, ring + (len(runs[0]) - 1) * self.sides, True)):
+            apex = None if cap is None else surface.add_vertices(
+                1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
+            surface.add_faces(self.sides if cap is not None else self.sides - 2,
+                              partial(write_fan, at, self.sides, apex, at_end))
+        vertices, faces, _ = surface.build()
+        return Mesh.trusted(vertices, faces)
+
+
+#: merged units overlap their neighbours by this fraction of the largest ring radius, so
+#: that the union joins them (booleans treat touching solids as apart)
+OVERLAP = 1e-4
+
+
+def weld_manifold(solid):
+    """``solid`` simplified until no two of its vertices are closer than float32 can
+    tell apart at its size (a few units in the last place): what a union leaves
+    where pieces overlap slightly would otherwise merge in STL/3MF/OBJ/PLY files
+    and leave edges shared by more than two faces."""
+    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
+    size = float(np.abs(np.concatenate([low, high])).max())
+    return solid.as_original().simplify(FLOAT32_WELD * max(size, 1e-30))
+
+
+#: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
+FLOAT32_WELD = 16 * 2.0 ** -23
+
+
+def _runs(mask, closed):
+    """``[(first, last)]`` index ranges of the runs of True in ``mask``; around a closed
+    pipe a run may wrap (``last < first``)."""
+    n = len(mask)
+    if mask.all():
+        return [(0, n - 1)]
+    shift = int(np.argmin(mask)) + 1 if closed else 0        # start just after a False
+    rolled = np.roll(mask, -shift)
+    edges = np.diff(np.concatenate([[0], rolled.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [((a + shift) % n, (b + shift) % n) for a, b in zip(starts.tolist(), stops.tolist())]
+
+
+def _units(pipe, segments, joints, overlap):
+    """Point sets whose convex hulls together make the tube along ``segments``.
+
+    Each segment's unit is its two end rings; at a corner in ``joints`` (beyond the
+    miter limit) the rings there are cut square to the segment instead and a ball
+    joint of hulls between rings swept about the corner (each step widened to keep
+    covering the ball) fills the wedge between them. Round caps of an open pipe join
+    the units of its end segments. Unit rings are pushed ``overlap`` along their
+    segment where another piece continues them.
+    """
+    rings, path = pipe.rings(), pipe.path
+    n, count = len(path), len(path.segments)
+    joints = np.asarray(joints, np.int64)
+    at_joint = np.zeros(n, bool)
+    at_joint[joints] = True
+    directions, centres = path.directions, path.points
+    pieces = []
+    for k in np.asarray(segments).tolist():
+        d = directions[k]
+        ends = []
+        for p, sign in ((k, -1.0), ((k + 1) % n, 1.0)):
+            ring = rings[p]
+            if at_joint[p]:
+                ring = ring - ((ring - centres[p]) @ d)[:, None] * d
+            inner = pipe.closed or 0 < (k if sign < 0 else k + 1) < n - 1
+            ends.append(ring + (sign * overlap * inner) * d)
+        pieces.append(np.concatenate(ends))
+    for k in joints.tolist():
+        pieces += _ball_joint(rings[k], centres[k], directions[k - 1], directions[k % count])
+    if not pipe.closed and pipe.caps == "round":
+        for row, sign, seg in ((0, -1, 0), (n - 1, 1, count - 1)):
+            if seg in set(np.asarray(segments).tolist()):
+                axes, pole = cap_axes(pipe._tubes, row, sign, pipe)
+                cap = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
+                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
+    return pieces
+
+
+def _ball_joint(ring, centre, d_in, d_out):
+    """Hulls filling a corner's wedge: the incoming segment's square-cut end ring at
+    ``centre`` swept about the corner to the outgoing one in steps of at most
+    :data:`~cadpipe.geometry.clearance.JOINT_STEP`, each step's rings widened by
+    ``1 / cos(step / 2)`` so that the chords cover the arcs."""
+    offsets = ring - centre
+    offsets = offsets - (offsets @ d_in)[:, None] * d_in
+    axis = np.cross(d_in, d_out)
+    size = np.linalg.norm(axis)
+    if size < 1e-9:                                # a reversal: any axis across d_in
+        axis = np.cross(d_in, np.eye(3)[int(np.argmin(np.abs(d_in)))])
+        size = np.linalg.norm(axis)
+    axis = axis / size
+    angle = float(np.arctan2(size, d_in @ d_out)) if size >= 1e-9 else np.pi
+    steps = max(1, int(np.ceil(angle / JOINT_STEP)))
+    widen = 1.0 / np.cos(0.5 * angle / steps)
+    sweep = []
+    for phi in np.linspace(0.0, angle, steps + 1):
+        c, s = np.cos(phi), np.sin(phi)
+        rotated = (offsets * c + np.cross(axis, offsets) * s
+                   + np.outer(offsets @ axis, axis) * (1 - c))
+        sweep.append(centre + widen * rotated)
+    return [np.concatenate([a, b]) for a, b in zip(sweep[:-1], sweep[1:])]
 
 
 def tubes_of(pipes):
