@@ -97,7 +97,7 @@ def robot_cell(configs, repeat):
     manager.add_object("workpiece", work.to_trimesh(), transform=place)
     for k, p in enumerate(pipes):
         manager.add_object(f"pipe{k}", p.mesh().to_trimesh())
-    allowed = {frozenset((a, b)) for a, b, _ in world.allowed()}
+    allowed = {frozenset((a, b)) for a, b, _ in world.allowed}
     qs = np.random.default_rng(0).uniform(-2.6, 2.6, (configs, 7))
     links = list(robot.link_meshes)
     world.check()                      # build BVHs and bounds before timing, as trimesh did

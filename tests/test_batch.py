@@ -68,7 +68,7 @@ def assorted_pipes():
 def test_a_batch_of_pipes_matches_each_pipe_alone():
     pipes = assorted_pipes()
     batch = tubes_of(pipes)
-    findings = batch.self_intersections()
+    findings = batch.self_intersection_findings()
     for g, pipe in enumerate(pipes):
         alone = tubes_of([pipe])
         rows = slice(batch.groups.first[g], batch.groups.last[g] + 1)
@@ -77,7 +77,7 @@ def test_a_batch_of_pipes_matches_each_pipe_alone():
         assert np.allclose(batch.normals[:, rows], alone.normals, rtol=0, atol=1e-12)
         assert batch.seam_shift[g] == alone.seam_shift[0]
         assert np.array_equal(batch.lines.arc_length[rows] > 0, alone.lines.arc_length > 0)
-        assert findings[g] == pipe.self_intersections()
+        assert findings[g] == pipe.self_intersection_findings()
     assert findings[-1] and "passes within" in findings[-1][0]      # the crossing path
 
 

@@ -27,7 +27,7 @@ def test_watertight_pipe_is_a_valid_solid():
     report = cadpipe.check_mesh(straight_pipe())
     assert report["valid"] and report["problems"] == []
     assert report["watertight"] and report["winding_consistent"] and report["outward"]
-    assert report["bodies"] == 1 and report["self_intersections"] == 0
+    assert report["bodies"] == 1 and report["intersecting_face_pairs"] == 0
     assert report["volume"] == pytest.approx(prism_volume(2.0, 0.25, 12), rel=1e-12)
     np.testing.assert_allclose(report["bounds"], [[0, -0.25, -0.25], [2, 0.25, 0.25]],
                                atol=1e-12)
@@ -86,7 +86,7 @@ def test_self_intersections_agree_with_fcl(offset):
 def test_crossing_parts_are_reported():
     report = cadpipe.check_mesh(cadpipe.Mesh.concatenate(crossing_pipes(0.0)))
     assert not report["valid"] and report["watertight"] and report["bodies"] == 2
-    assert report["self_intersections"] > 0
+    assert report["intersecting_face_pairs"] > 0
     assert any("cut through" in p for p in report["problems"])
 
 

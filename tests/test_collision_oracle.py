@@ -228,7 +228,7 @@ def test_small_arm_agrees_with_manifold():
     place = np.eye(4)
     place[:3, 3] = (0.0, 0.45, 0.7)
     world.add("block", obstacle, transform=place)
-    assert world.allowed() == [("l1", "l2", "adjacent links"), ("l2", "l3", "adjacent links")]
+    assert world.allowed == [("l1", "l2", "adjacent links"), ("l2", "l3", "adjacent links")]
     rng = np.random.default_rng(7)
     configs = rng.uniform(-3, 3, (N_POSES, 3))
     link_solid, block = link.to_manifold(), obstacle.to_manifold().transform(place[:3])

@@ -51,7 +51,7 @@ def test_same_group_pairs_are_self_collisions_and_come_first():
     assert [(a, b, d.phase) for a, b, d in report.collisions] == [
         ("l2", "l3", "self"), ("tool", "obstacle", "world")]
     assert report.allowed == [("l1", "l2", "adjacent links")]
-    assert world.allowed() == [("l1", "l2", "adjacent links")]
+    assert world.allowed == [("l1", "l2", "adjacent links")]
 
 
 def test_stop_after_self_collision_leaves_the_rest_unchecked():

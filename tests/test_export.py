@@ -45,7 +45,7 @@ def scene():
     union = cadpipe.Mesh.concatenate([bent_pipe(sides=12, lift=2.0).mesh().with_parts(["red"]),
                                       bent_pipe(sides=6, lift=4.0).mesh().with_parts(["blue"])])
     parts = (ScenePart("plain pipe", plain, color=GREEN, transform=shift,
-                       attributes=bent_pipe(sides=16).attributes()),
+                       attributes=bent_pipe(sides=16).attributes),
              ScenePart("union", union))
     return Scene("work cell", parts, units="mm", colors={"red": RED, "blue": "#0000ff"})
 

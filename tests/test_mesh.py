@@ -64,12 +64,53 @@ def test_bad_mesh_input(vertices, faces, word):
 
 
 def test_manifold_rejects_open_mesh_with_cadpipe_error(tube):
-    with pytest.raises(MeshError, match="manifold3d rejected"):
+    with pytest.raises(MeshError, match="not a closed solid"):
         Mesh(tube.vertices, tube.faces[2:]).to_manifold("open part")
 
 
 def test_from_manifold_labels_only_the_parts_present(tube):
     solid = tube.to_manifold().as_original()
-    mesh = Mesh.from_manifold(solid, part_names={solid.original_id(): "tube", 10 ** 6: "gone"})
+    mesh = Mesh.from_manifold(solid, part_of_id={solid.original_id(): "tube", 10 ** 6: "gone"})
     assert mesh.part_names == ("tube",)
     assert (mesh.face_part == 0).all()
+
+
+def test_watertight_means_closed_as_in_trimesh(tube):
+    """A closed tube with one face flipped: closed (trimesh agrees) but not oriented."""
+    faces = np.array(tube.faces)
+    faces[0] = faces[0, ::-1]
+    flipped_one = Mesh(tube.vertices, faces)
+    reference = flipped_one.to_trimesh()
+    assert flipped_one.is_watertight == reference.is_watertight == True  # noqa: E712
+    assert flipped_one.is_winding_consistent == reference.is_winding_consistent == False  # noqa: E712
+    assert not flipped_one.is_oriented and not flipped_one.is_outward
+    assert tube.is_oriented and tube.is_outward
+    with pytest.raises(MeshError, match="orientation"):
+        flipped_one.require_solid()
+
+
+def test_edges_agree_with_trimesh(tube):
+    reference = tube.to_trimesh()
+    assert np.array_equal(tube.edges, reference.edges)
+    assert np.array_equal(tube.edges_unique, np.unique(reference.edges_sorted, axis=0))
+    assert (tube.edge_face_counts == 2).all()
+    rows = tube.edge_index(tube.edges[:, 1], tube.edges[:, 0])
+    assert np.array_equal(rows, tube.edges_unique_inverse)
+
+
+def test_renamed_names_still_work_with_a_warning(tube):
+    import manifold3d
+
+    solid = tube.to_manifold().as_original()
+    with pytest.warns(DeprecationWarning, match="part_of_id"):
+        old = Mesh.from_manifold(solid, part_names={solid.original_id(): "tube"})
+    assert old.part_names == ("tube",)
+    pipe = Pipe([[0, 0, 0], [1, 0, 0]], 0.2, sides=6)
+    assert pipe.attributes["sides"] == 6
+    with pytest.warns(DeprecationWarning, match="attributes"):
+        assert pipe.attributes()["sides"] == 6
+    with pytest.warns(DeprecationWarning, match="convex_pieces"):
+        assert len(pipe.units()) == len(pipe.convex_pieces())
+    with pytest.warns(DeprecationWarning, match="self_intersection_findings"):
+        assert pipe.self_intersections() == pipe.self_intersection_findings() == []
+    assert isinstance(solid, manifold3d.Manifold)

@@ -77,7 +77,9 @@ def test_closed_spline_is_periodic():
 
 
 def test_fillet_replaces_corner_with_tangent_arc():
-    p, source = Path([[0, 0, 0], [1, 0, 0], [1, 1, 0]]).fillet(0.25)
+    corner = Path([[0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    p, source = corner.filleted(0.25), corner.fillet_sources(0.25)
+    assert len(source) == len(p)
     centre = np.array([0.75, 0.25, 0])
     arc = source == 1
     assert np.allclose(np.linalg.norm(p.points[arc] - centre, axis=1), 0.25)
@@ -87,9 +89,23 @@ def test_fillet_replaces_corner_with_tangent_arc():
 
 def test_fillet_too_large_for_segment_is_an_error():
     with pytest.raises(cadpipe.GeometryError, match="bend_radius"):
-        Path([[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0]]).fillet(1.0)
+        Path([[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0]]).filleted(1.0)
 
 
 def test_fold_back_is_an_error():
     with pytest.raises(cadpipe.GeometryError, match="folds back"):
         Path([[0, 0, 0], [1, 0, 0], [0, 0, 0.0]]).tangents
+
+
+def test_fillet_and_trimmed_return_paths_like_resample():
+    corner = Path([[0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    with pytest.warns(DeprecationWarning, match="filleted"):
+        old_path, old_source = corner.fillet(0.25)
+    assert np.array_equal(old_path.points, corner.filleted(0.25).points)
+    assert np.array_equal(old_source, corner.fillet_sources(0.25))
+    piece = corner.trimmed(0.3, 0.2)
+    assert isinstance(piece, Path) and isinstance(corner.resample(0.1), Path)
+    # the documented arc-length relation: point i sits at start + arc_length[i]
+    on_corner = np.stack([np.interp(0.3 + piece.arc_length, corner.arc_length,
+                                    corner.points[:, c]) for c in range(3)], axis=1)
+    assert np.allclose(on_corner, piece.points)

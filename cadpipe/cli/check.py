@@ -43,7 +43,7 @@ def format_report(name, report):
         ("bounds", "[" + ", ".join(f"{v:.6g}" for v in low) + "] .. ["
          + ", ".join(f"{v:.6g}" for v in high) + "]"),
         ("bodies", str(report["bodies"])),
-        ("self-intersections", str(report["self_intersections"])),
+        ("intersecting faces", str(report["intersecting_face_pairs"])),
     ]
     lines = [f"{name}: {verdict}"] + [f"  {key:<20}{value}" for key, value in rows]
     lines += [f"  problem: {p}" for p in report["problems"]]

@@ -45,7 +45,7 @@ def weld_sections(path, count, gap):
     """``count`` pieces of ``path``, each separated from the next by ``gap`` of arc length."""
     piece = (path.length - gap * (count - 1)) / count
     starts = np.arange(count) * (piece + gap)
-    return [path.trimmed(s, max(path.length - s - piece, 0.0))[0] for s in starts]
+    return [path.trimmed(s, max(path.length - s - piece, 0.0)) for s in starts]
 
 
 @dataclass(frozen=True)

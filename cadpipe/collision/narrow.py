@@ -42,7 +42,7 @@ def _apply(matrix, points):
 
 def pseudo_normals(mesh):
     """Angle-weighted pseudo-normals of a closed mesh (Baerentzen and Aanaes, 2005):
-    per face, per vertex, and per undirected edge (sorted ``i * V + j`` keys).
+    per face, per vertex, and per undirected edge (rows of ``mesh.edges_unique``).
 
     The sign of ``(p - q) . n`` at the nearest surface point ``q``, with ``n`` the
     pseudo-normal of the feature ``q`` lies on, tells inside from outside.
@@ -58,13 +58,9 @@ def pseudo_normals(mesh):
         corner[:, k] = np.arccos(np.clip(cos, -1.0, 1.0))
     vertex = np.zeros((len(mesh.vertices), 3))
     np.add.at(vertex, mesh.faces.ravel(), (corner[:, :, None] * normals[:, None]).reshape(-1, 3))
-    f = mesh.faces
-    pairs = np.sort(np.stack([f, np.roll(f, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
-    keys, inverse = np.unique(pairs[:, 0] * len(mesh.vertices) + pairs[:, 1],
-                              return_inverse=True)
-    edge = np.zeros((len(keys), 3))
-    np.add.at(edge, inverse, np.repeat(normals, 3, axis=0))
-    return normals, vertex, keys, edge
+    edge = np.zeros((len(mesh.edge_face_counts), 3))
+    np.add.at(edge, mesh.edges_unique_inverse, np.repeat(normals, 3, axis=0))
+    return normals, vertex, edge
 
 
 def mesh_contains(body, points):
@@ -82,7 +78,7 @@ def mesh_contains(body, points):
     if not inside.any():
         return inside
     faces, vertices = body.mesh.faces, body.mesh.vertices
-    normals, vertex, keys, edge = body.pseudo_normals
+    normals, vertex, edge = body.pseudo_normals
     mesh_object = body.fcl_anchor
     probe = fcl.CollisionObject(fcl.Sphere(0.0), fcl.Transform())
     request = fcl.DistanceRequest(enable_nearest_points=True)
@@ -98,8 +94,8 @@ def mesh_contains(body, points):
         if small.sum() >= 2:                      # nearest to a vertex
             n = vertex[faces[t, int(np.argmax(bary))]]
         elif small.any():                         # nearest to an edge
-            i, j = np.sort(faces[t][~small])
-            n = edge[np.searchsorted(keys, i * len(vertices) + j)]
+            i, j = faces[t][~small]
+            n = edge[body.mesh.edge_index(i, j)]
         else:
             n = normals[t]
         offset = points[k] - q

@@ -23,6 +23,7 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe.errors import InputError
 from cadpipe.solids.transform import is_rigid
 from cadpipe.collision import bounds
@@ -295,9 +296,13 @@ class CollisionWorld:
         self._allowed[(i, j)] = str(reason)
         self._pair_table = None
 
+    @property
     def allowed(self):
-        """``(name_a, name_b, reason)`` for every allowed pair."""
-        return [(self._names[i], self._names[j], r) for (i, j), r in sorted(self._allowed.items())]
+        """``(name_a, name_b, reason)`` for every allowed pair (a list, as
+        :attr:`CollisionReport.allowed`)."""
+        return _deprecated.Listing([(self._names[i], self._names[j], r)
+                                    for (i, j), r in sorted(self._allowed.items())],
+                                   "CollisionWorld.allowed")
 
     # -- robots ---------------------------------------------------------------
     def add_robot(self, robot, joints=None, transform=None, group=None):

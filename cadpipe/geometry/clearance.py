@@ -87,11 +87,6 @@ def tube_folds(tubes, *, first_only=False):
             for m, s, j in zip(messages, merged, joints)]
 
 
-def tube_self_intersections(tubes):
-    """Per tube, findings (strings naming path points and arc lengths); empty if none."""
-    return [list(f.messages) for f in tube_folds(tubes)]
-
-
 def tube_local(groups, rows):
     """Local (within their tube) indices of global ``rows``."""
     return rows - groups.first[groups.index[rows]]

@@ -11,6 +11,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe._vec import cross
 from cadpipe.errors import InputError, MeshError
@@ -36,6 +37,28 @@ def winding_numbers(triangles, points, chunk=2_000_000):
                 + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
         out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
     return out
+
+
+def connected_labels(count, a, b):
+    """Connected-component label of each of ``count`` nodes linked by the pairs ``(a, b)``.
+
+    Parameters
+    ----------
+    count : int
+        Number of nodes.
+    a, b : (E,) int array
+        The links' ends.
+
+    Returns
+    -------
+    labels : (count,) int32
+        Equal labels for nodes joined by a chain of links (scipy's connected_components).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(count, count))
+    return connected_components(graph, directed=False)[1]
 
 
 def _frozen(arr, dtype):
@@ -184,50 +207,84 @@ class Mesh:
 
     # -- topology -------------------------------------------------------------
     @cached_property
-    def _edge_counts(self):
-        """Occurrences of each directed edge and of its reverse."""
-        f = self._faces
-        a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
-        b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-        n = max(len(self._vertices), 1)
-        keys = a * n + b
-        unique, counts = np.unique(keys, return_counts=True)
-        reverse = (unique % n) * n + unique // n
-        pos = np.searchsorted(unique, reverse).clip(0, len(unique) - 1)
-        reverse_counts = np.where(unique[pos] == reverse, counts[pos], 0) if len(unique) else counts
-        return counts, reverse_counts
+    def edges(self):
+        """(3F, 2) int64 directed edges: row ``3f + k`` runs from corner k of face f to
+        corner k + 1, as trimesh's ``edges``."""
+        return self._faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+
+    def edge_keys(self, a, b):
+        """One int64 key per undirected edge ``(a, b)``, the same whichever way round.
+
+        Parameters
+        ----------
+        a, b : (E,) int array_like
+            Vertex indices of each edge's ends.
+
+        Returns
+        -------
+        keys : (E,) int64
+            ``min * V + max``: equal keys are the same edge; sorted keys sort the
+            edges as :attr:`edges_unique` does.
+        """
+        a, b = np.asarray(a, np.int64), np.asarray(b, np.int64)
+        return np.minimum(a, b) * max(len(self._vertices), 1) + np.maximum(a, b)
+
+    @cached_property
+    def _unique_edges(self):
+        """Sorted undirected edge keys, each directed edge's row among them, and counts."""
+        e = self.edges
+        return np.unique(self.edge_keys(e[:, 0], e[:, 1]), return_inverse=True,
+                         return_counts=True)
+
+    @property
+    def edges_unique(self):
+        """(E, 2) int64 undirected edges ``(low, high)``, sorted, each once."""
+        return np.stack(np.divmod(self._unique_edges[0], max(len(self._vertices), 1)), axis=1)
+
+    @property
+    def edges_unique_inverse(self):
+        """(3F,) int64 row of :attr:`edges_unique` for each row of :attr:`edges`."""
+        return self._unique_edges[1].reshape(-1)
+
+    @property
+    def edge_face_counts(self):
+        """(E,) int64 faces on each of :attr:`edges_unique` (1: a hole's rim, > 2:
+        non-manifold)."""
+        return self._unique_edges[2]
+
+    def edge_index(self, a, b):
+        """(E,) row of :attr:`edges_unique` of each undirected edge ``(a, b)`` of the mesh."""
+        return np.searchsorted(self._unique_edges[0], self.edge_keys(a, b))
 
     @cached_property
     def is_watertight(self):
-        """Every edge is shared by exactly two faces, traversed once in each direction."""
-        if len(self._faces) == 0:
-            return False
-        counts, reverse_counts = self._edge_counts
-        return bool(np.all(counts == 1) and np.all(reverse_counts == 1))
+        """Closed: every edge is shared by exactly two faces (trimesh's meaning; the
+        faces' winding is not looked at, see :attr:`is_oriented`)."""
+        return bool(len(self._faces) and np.all(self.edge_face_counts == 2))
 
     @cached_property
     def is_winding_consistent(self):
-        """No edge is traversed twice in the same direction."""
-        counts, _ = self._edge_counts
-        return bool(np.all(counts == 1))
+        """No edge is traversed twice in the same direction: neighbouring faces agree."""
+        e, (_, row, counts) = self.edges, self._unique_edges
+        forward = np.bincount(row.reshape(-1), weights=e[:, 0] < e[:, 1], minlength=len(counts))
+        return bool(np.all(forward <= 1) and np.all(counts - forward <= 1))
+
+    @cached_property
+    def is_oriented(self):
+        """Closed and consistently wound: every edge is traversed once each way, so the
+        surface has a well-defined inside (what manifold3d and booleans need)."""
+        return self.is_watertight and self.is_winding_consistent
 
     @cached_property
     def is_outward(self):
-        """Closed, consistently wound and with positive volume."""
-        return self.is_watertight and self.volume > 0
+        """Oriented with positive volume: a solid whose normals point out."""
+        return self.is_oriented and self.volume > 0
 
     @cached_property
     def body_labels(self):
         """(V,) connected-component label of each vertex."""
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-
-        f = self._faces
-        n = len(self._vertices)
-        rows = np.concatenate([f[:, 0], f[:, 1]])
-        cols = np.concatenate([f[:, 1], f[:, 2]])
-        graph = coo_matrix((np.ones(len(rows), np.int8), (rows, cols)), shape=(n, n))
-        return connected_components(graph, directed=False)[1]
+        e = self.edges
+        return connected_labels(len(self._vertices), e[:, 0], e[:, 1])
 
     @cached_property
     def n_bodies(self):
@@ -238,10 +295,9 @@ class Mesh:
 
     @cached_property
     def euler_characteristic(self):
+        """V - E + F over the vertices that faces use (2 per sphere-like body)."""
         used = len(np.unique(self._faces))
-        edges = len(np.unique(np.sort(self._faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1),
-                              axis=0))
-        return int(used - edges + len(self._faces))
+        return int(used - len(self.edge_face_counts) + len(self._faces))
 
     @cached_property
     def genus(self):
@@ -261,6 +317,9 @@ class Mesh:
         if not self.is_watertight:
             raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
                             "close the holes or repair it before using it as a solid")
+        if not self.is_winding_consistent:
+            raise MeshError(f"{name}: neighbouring faces disagree on orientation; "
+                            "make the winding consistent (e.g. trimesh's fix_normals)")
         if self.volume <= 0:
             raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
                             "flip its faces")
@@ -307,22 +366,67 @@ class Mesh:
     def from_trimesh(cls, tm, **kwargs):
         return cls(tm.vertices, tm.faces, **kwargs)
 
-    def to_manifold(self, name="mesh"):
-        """A :class:`manifold3d.Manifold`; raises :class:`MeshError` if it rejects the mesh."""
+    def to_manifold(self, name="mesh", original_id=None):
+        """This mesh as a :class:`manifold3d.Manifold`.
+
+        Parameters
+        ----------
+        name : str
+            What to call the mesh in the error.
+        original_id : int, optional
+            manifold3d original id to tag every triangle with (see
+            :func:`cadpipe.solids.booleans.reserve_ids`), so a boolean's output faces
+            still know their part.
+
+        Returns
+        -------
+        solid : manifold3d.Manifold
+
+        Raises
+        ------
+        MeshError
+            When manifold3d rejects the mesh (not a closed, oriented 2-manifold).
+        """
         import manifold3d
 
-        mesh = manifold3d.Mesh64(vert_properties=np.array(self._vertices),  # writeable copy
-                                 tri_verts=self._faces.astype(np.uint64))
-        solid = manifold3d.Manifold(mesh)
+        runs = {} if original_id is None else {
+            "run_index": np.array([0, self._faces.size], np.uint64),
+            "run_original_id": np.array([original_id], np.uint32)}
+        solid = manifold3d.Manifold(manifold3d.Mesh64(
+            vert_properties=np.array(self._vertices),                # a writeable copy
+            tri_verts=self._faces.astype(np.uint64), **runs))
         status = solid.status()
         if status != manifold3d.Error.NoError:
-            raise MeshError(f"{name}: manifold3d rejected the mesh ({status.name}); "
-                            "it must be a closed, oriented 2-manifold")
+            raise MeshError(f"{name}: not a closed solid (manifold3d: {status.name}); it must "
+                            "be a closed, consistently oriented surface: repair or close it "
+                            "first")
         return solid
 
     @classmethod
-    def from_manifold(cls, solid, part_names=None, **kwargs):
-        """Convert a manifold3d result; ``part_names`` maps original ids to part names."""
+    def from_manifold(cls, solid, part_of_id=None, *, part_names=None, **kwargs):
+        """A mesh of a manifold3d solid, its faces labelled by the part they came from.
+
+        Parameters
+        ----------
+        solid : manifold3d.Manifold
+        part_of_id : mapping of int to str, optional
+            Part name of each manifold3d original id (as tagged by
+            :meth:`to_manifold`); the result's :attr:`part_names` are the names of
+            the parts that still have faces, in the mapping's order.
+        part_names : mapping, optional
+            Deprecated name of ``part_of_id``.
+        **kwargs
+            Other :class:`Mesh` arguments (``attributes``).
+
+        Returns
+        -------
+        mesh : Mesh
+            Vertices welded where manifold3d split them between triangle runs.
+        """
+        if part_names is not None:
+            _deprecated.warn("Mesh.from_manifold(part_names=...)",
+                             "Mesh.from_manifold(part_of_id=...)")
+            part_of_id = part_names
         m = solid.to_mesh64()
         vertices = np.asarray(m.vert_properties)[:, :3]
         faces = np.asarray(m.tri_verts, dtype=np.int64)
@@ -333,17 +437,17 @@ class Mesh:
             target[merge_from] = np.asarray(m.merge_to_vert, dtype=np.int64)
             used, faces = np.unique(target[faces], return_inverse=True)
             vertices, faces = vertices[used], faces.reshape(-1, 3)
-        if not part_names:
+        if not part_of_id:
             return cls(vertices, faces, **kwargs)
         run_ids = [int(i) for i in m.run_original_id]
-        unknown = [i for i in run_ids if i not in part_names]
+        unknown = [i for i in run_ids if i not in part_of_id]
         if unknown:
             raise MeshError(f"boolean result has triangles from an unknown part (id {unknown[0]})")
         counts = np.diff(np.asarray(m.run_index, dtype=np.int64)) // 3
-        run_names = [part_names[i] for i in run_ids]
+        run_names = [part_of_id[i] for i in run_ids]
         # only the parts that still have triangles label this mesh
         present = {n for n, c in zip(run_names, counts) if c}
-        names = [n for n in dict.fromkeys(part_names.values()) if n in present]
+        names = [n for n in dict.fromkeys(part_of_id.values()) if n in present]
         index = {n: k for k, n in enumerate(names)}
         face_part = np.repeat([index.get(n, -1) for n in run_names], counts).astype(np.int32)
         return cls(vertices, faces, face_part=face_part, part_names=names, **kwargs)

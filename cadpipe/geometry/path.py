@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe._validate import as_points, as_positive
 from cadpipe._vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
@@ -135,26 +136,64 @@ class Path:
         """
         step = float(as_positive(step, "step"))
         counts = np.maximum(np.ceil(self.segment_lengths / step).astype(np.int64), 1)
-        seg = np.repeat(np.arange(len(counts)), counts)
-        frac = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
-            np.repeat(counts, counts)
+        runs = Groups(counts)
+        seg, frac = runs.index, runs.local() / runs.spread(counts)
         pts = self._points[seg] + frac[:, None] * self.segments[seg]
         if not self._closed:
             pts = np.vstack([pts, self._points[-1:]])
         return Path(pts, closed=self._closed)
 
-    def fillet(self, bend_radius, max_angle=np.radians(5.0)):
-        """Round each corner with a circular arc of radius ``bend_radius``.
-
-        The arc is tangent to both segments and sampled every ``max_angle``
-        radians. Raises :class:`GeometryError` where the segments are too short
-        for the arc.
-        Returns the new path and, for each new point, the index of the point of
-        this path it came from (to carry per-point data such as radii across).
-        """
+    def _fillet_counts(self, bend_radius, max_angle):
+        """Validated radius, corner mask and new points per old point of a fillet."""
         radius = float(as_positive(bend_radius, "bend_radius"))
         alpha = self.turning_angles
         corner = alpha > 1e-9
+        counts = np.where(corner, np.maximum(np.ceil(alpha / max_angle), 1).astype(np.int64) + 1, 1)
+        return radius, corner, counts
+
+    def fillet_sources(self, bend_radius, max_angle=np.radians(5.0)):
+        """Which point of this path each point of :meth:`filleted` comes from.
+
+        Parameters
+        ----------
+        bend_radius : float
+            Arc radius, in path units, > 0.
+        max_angle : float
+            Largest angle in radians one arc segment turns.
+
+        Returns
+        -------
+        source : (M,) int64
+            Index into this path's points, for carrying per-point data (radii) across.
+        """
+        counts = self._fillet_counts(bend_radius, max_angle)[2]
+        return np.repeat(np.arange(len(self)), counts)
+
+    def filleted(self, bend_radius, max_angle=np.radians(5.0)):
+        """This path with each corner rounded by a circular arc of radius ``bend_radius``.
+
+        The arc is tangent to both segments and sampled every ``max_angle``
+        radians; :meth:`fillet_sources` says which old point each new one replaces.
+
+        Parameters
+        ----------
+        bend_radius : float
+            Arc radius, in path units, > 0.
+        max_angle : float
+            Largest angle in radians one arc segment turns.
+
+        Returns
+        -------
+        path : Path
+            The rounded path, M >= N points.
+
+        Raises
+        ------
+        GeometryError
+            Where a segment is too short for the arcs at its two ends.
+        """
+        radius, corner, counts = self._fillet_counts(bend_radius, max_angle)
+        alpha = self.turning_angles
         setback = np.where(corner, radius * np.tan(alpha / 2), 0.0)
         before = np.roll(setback, -1) if self._closed else np.append(setback[1:], 0.0)
         room = self.segment_lengths - setback[: len(self.segment_lengths)] - \
@@ -166,10 +205,9 @@ class Path:
                 f"{(i + 1) % len(self)}: the segment is {self.segment_lengths[i]:.6g} long but "
                 f"the arcs need {setback[i] + before[i]:.6g}; use a smaller bend_radius")
         d_in, d_out = self._lines.incoming.T, self._lines.directions.T
-        counts = np.where(corner, np.maximum(np.ceil(alpha / max_angle), 1).astype(np.int64) + 1, 1)
-        source = np.repeat(np.arange(len(self)), counts)
-        t = (np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)) / \
-            np.repeat(np.maximum(counts - 1, 1), counts)
+        runs = Groups(counts)
+        source = runs.index
+        t = runs.local() / np.repeat(np.maximum(counts - 1, 1), counts)
         p = self._points[source]
         a = p - setback[source, None] * d_in[source]          # arc start (tangent point)
         b = p + setback[source, None] * d_out[source]         # arc end
@@ -185,15 +223,30 @@ class Path:
         w1 = np.where(sin_al > 1e-12, np.sin(t * al) / safe, t)
         arc = centre + w0[:, None] * e0 + w1[:, None] * e1
         pts = np.where(corner[source][:, None], arc, p)
-        return Path(pts, closed=self._closed), source
+        return Path(pts, closed=self._closed)
+
+    def fillet(self, bend_radius, max_angle=np.radians(5.0)):
+        """Deprecated: ``(filleted(...), fillet_sources(...))``."""
+        _deprecated.warn("Path.fillet()", "Path.filleted() and Path.fillet_sources()")
+        return (self.filleted(bend_radius, max_angle),
+                self.fillet_sources(bend_radius, max_angle))
 
     def trimmed(self, start=0.0, end=0.0):
         """This open path with ``start`` and ``end`` arc length removed from its ends.
 
-        Returns the new path and each new point's arc length on this path.
+        Parameters
+        ----------
+        start, end : float
+            Arc length to remove at each end, in path units, >= 0.
+
+        Returns
+        -------
+        path : Path
+            The remaining piece. Its point ``i`` lies at arc length
+            ``start + path.arc_length[i]`` on this path.
         """
         if self._closed:
-            raise InputError("trimmed: a closed path has no ends to trim")
+            raise InputError("a closed path has no ends to trim", key="trimmed")
         lo, hi = float(start), self.length - float(end)
         if not 0.0 <= lo < hi <= self.length:
             raise GeometryError(f"cannot trim {start:g} and {end:g} off a path "
@@ -203,7 +256,7 @@ class Path:
         inner = (arc > lo + tol) & (arc < hi - tol)     # keep the cut points distinct
         s = np.concatenate([[lo], arc[inner], [hi]])
         pts = np.stack([np.interp(s, arc, self._points[:, c]) for c in range(3)], axis=1)
-        return Path(pts), s
+        return Path(pts)
 
     def reversed(self):
         return Path(self._points[::-1], closed=self._closed)

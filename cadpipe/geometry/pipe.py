@@ -11,6 +11,7 @@ from functools import cached_property, partial
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_int, as_positive
 from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
@@ -125,8 +126,8 @@ class Pipe:
         if self.corners == "round":
             bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
             self.bend_radius = float(as_positive(bend, "bend_radius"))
-            source, index = source.fillet(self.bend_radius)
-            radii = radii[index]
+            radii = radii[source.fillet_sources(self.bend_radius)]
+            source = source.filleted(self.bend_radius)
         else:
             self.bend_radius = None
         self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
@@ -143,8 +144,8 @@ class Pipe:
 
     def trimmed(self, start=0.0, end=0.0):
         """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
-        path, arc = self.path.trimmed(start, end)
-        radii = np.interp(arc, self.path.arc_length, self.radii)
+        path = self.path.trimmed(start, end)
+        radii = np.interp(start + path.arc_length, self.path.arc_length, self.radii)
         return Pipe(path, radii, **self._settings)
 
     @property
@@ -197,12 +198,14 @@ class Pipe:
         """
         return self._tubes.rings(slice(None), self.sides if sides is None else sides)
 
+    @property
     def attributes(self):
-        """The parameters that made this pipe, for exporters' metadata."""
-        return {"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+        """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
+        return _deprecated.Attributes({"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
                 "radius_max": float(self.radii.max()), "path_length": self.path.length,
                 "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
-                "envelope": self.envelope, "frame": self.frame, "corners": self.corners}
+                "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
+                                      "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
     def folds(self):
@@ -215,9 +218,14 @@ class Pipe:
         """
         return self._tubes.folds()[0]
 
-    def self_intersections(self):
+    def self_intersection_findings(self):
         """Where the tube would cut through itself: a list of human-readable findings."""
         return list(self.folds().messages)
+
+    def self_intersections(self):
+        """Deprecated: :meth:`self_intersection_findings`."""
+        _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
+        return self.self_intersection_findings()
 
     def mesh(self):
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
@@ -231,7 +239,7 @@ class Pipe:
         folds = self._tubes.folds(first_only=self.strict)[0]
         if not folds:
             vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-            return Mesh.trusted(vertices, faces, attributes=self.attributes())
+            return Mesh.trusted(vertices, faces, attributes=self.attributes)
         if self.strict:
             problems = folds.messages
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
@@ -254,6 +262,11 @@ class Pipe:
         return vertices, faces
 
     def units(self, overlap=0.0):
+        """Deprecated: :meth:`convex_pieces` (``units`` is a length unit elsewhere)."""
+        _deprecated.warn("Pipe.units()", "Pipe.convex_pieces()")
+        return self.convex_pieces(overlap)
+
+    def convex_pieces(self, overlap=0.0):
         """Convex pieces whose union is the tube: each path unit, plus round caps.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
@@ -284,7 +297,7 @@ class Pipe:
         names = "; ".join(f"path points {a}..{(b + 1) % len(arc)} (arc length {s:.6g} to "
                           f"{e:.6g})" for (a, b), (s, e) in zip(stretches, spans))
         return Mesh.from_manifold(weld_manifold(solid), attributes={
-            **self.attributes(), "merged": names,
+            **self.attributes, "merged": names,
             "merged_arc_lengths": tuple(x for span in spans for x in span),
             "folds": folds.messages[0]})
 

@@ -108,7 +108,7 @@ class Tubes:
             self.__dict__["_folds"] = folds
         return folds
 
-    def self_intersections(self):
+    def self_intersection_findings(self):
         """Per tube, a list of findings where it would cut through itself (see
         :mod:`cadpipe.geometry.clearance`)."""
         return [list(f.messages) for f in self.folds()]

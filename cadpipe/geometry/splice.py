@@ -65,13 +65,13 @@ def splice(*pipes, transition="lcm", closed=False):
         return pipes[0].mesh().with_parts(["pipe0"])
     before, after = _junctions(len(pipes), closed)
     pipes, tubes = _room_for_transitions(list(pipes), tubes_of(pipes), before, after)
-    for i, problems in enumerate(tubes.self_intersections()):
+    for i, problems in enumerate(tubes.self_intersection_findings()):
         if problems:
             raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}")
     sides = tubes.sides
     n3 = np.lcm(sides[before], sides[after]) if transition == "lcm" else sides[after]
     bridges = _transition_tubes(tubes, before, after, n3)
-    for k, problems in enumerate(bridges.self_intersections()):
+    for k, problems in enumerate(bridges.self_intersection_findings()):
         if problems:
             raise GeometryError(f"splice: the transition{before[k]} would intersect itself: "
                                 f"{problems[0]}; move the pipes apart or align their ends")

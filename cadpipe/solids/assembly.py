@@ -57,10 +57,8 @@ class Part:
 
     @property
     def attributes(self):
-        obj = self.obj
-        found = obj.attributes() if callable(getattr(obj, "attributes", None)) else \
-            getattr(obj, "attributes", {})
-        return MappingProxyType(dict(found))
+        """Read-only mapping of the parameters that made the part's object."""
+        return MappingProxyType(dict(getattr(self.obj, "attributes", {})))
 
 
 class Assembly:
@@ -194,7 +192,7 @@ class Assembly:
             if is_void(solid, self._operands[0]):
                 raise GeometryError(f"assembly {self.name!r}: nothing is left after the "
                                     "subtractions and intersections")
-            self._union = Mesh.from_manifold(solid, part_names=self._names,
+            self._union = Mesh.from_manifold(solid, part_of_id=self._names,
                                              attributes={"kind": "assembly", "name": self.name,
                                                          "units": self.units})
             if progress is not None:
@@ -217,7 +215,7 @@ class Assembly:
         solid = combine(list(solids), cuts, clips)
         if part.transform is not None:
             solid = solid.transform(np.linalg.inv(part.transform)[:3])
-        return Mesh.from_manifold(solid, part_names=self._names, attributes=part.attributes)
+        return Mesh.from_manifold(solid, part_of_id=self._names, attributes=part.attributes)
 
     def to_scene(self, mode="parts"):
         """A :class:`~cadpipe.io.scene.Scene` for exporters.

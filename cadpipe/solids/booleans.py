@@ -15,7 +15,8 @@ overlap nothing are never sent through a boolean.
 import numpy as np
 
 from cadpipe.errors import GeometryError, MeshError
-from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.ragged import Groups
+from cadpipe.geometry.mesh import Mesh, connected_labels
 
 #: :func:`snap` welds vertices closer than this fraction of the mesh's bounding-box diagonal
 SNAP_TOLERANCE = 1e-6
@@ -29,8 +30,6 @@ def snap(mesh, tolerance=None):
     would then see an open surface. Vertices within ``tolerance`` of each other
     (default :data:`SNAP_TOLERANCE` times the bounding-box diagonal) become one.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
     vertices = mesh.vertices
@@ -42,9 +41,7 @@ def snap(mesh, tolerance=None):
     pairs = cKDTree(vertices).query_pairs(tolerance, output_type="ndarray")
     if not len(pairs):
         return mesh
-    n = len(vertices)
-    graph = coo_matrix((np.ones(len(pairs), np.int8), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, label = connected_components(graph, directed=False)
+    label = connected_labels(len(vertices), pairs[:, 0], pairs[:, 1])
     _, first = np.unique(label, return_index=True)
     faces = label[mesh.faces]
     keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & \
@@ -69,17 +66,7 @@ def as_solid(mesh, name, original_id):
     it encloses no volume or is inside out, or when one of its shells is inside out
     without being a void inside another shell.
     """
-    import manifold3d
-
-    solid = manifold3d.Manifold(manifold3d.Mesh64(
-        vert_properties=np.array(mesh.vertices),                      # a writeable copy
-        tri_verts=mesh.faces.astype(np.uint64),
-        run_index=np.array([0, mesh.faces.size], np.uint64),
-        run_original_id=np.array([original_id], np.uint32)))
-    status = solid.status()
-    if status != manifold3d.Error.NoError:
-        raise MeshError(f"{name}: not a closed solid (manifold3d: {status.name}); it must be a "
-                        "closed, consistently oriented surface: repair or close it first")
+    solid = mesh.to_manifold(name, original_id)
     if solid.is_empty():
         raise MeshError(f"{name}: encloses no volume (every triangle is degenerate)")
     volume = solid.volume()
@@ -103,10 +90,9 @@ def _check_shells(solid, name):
     body = manifold3d.Manifold.batch_boolean([shells[i] for i in np.flatnonzero(volumes > 0)],
                                              manifold3d.OpType.Add)
     for i in voids:
-        m = shells[i].to_mesh64()
-        cavity = manifold3d.Manifold(manifold3d.Mesh64(
-            vert_properties=np.array(m.vert_properties),
-            tri_verts=np.array(np.asarray(m.tri_verts)[:, ::-1])))
+        shell = Mesh.from_manifold(shells[i])
+        cavity = Mesh.trusted(shell.vertices, shell.faces[:, ::-1]).to_manifold(
+            f"{name} shell {i}")
         if (cavity - body).volume() > 1e-9 * cavity.volume():
             raise MeshError(f"{name}: shell {i} of {len(shells)} is inside out and not a void "
                             "inside another shell; flip its faces")
@@ -130,23 +116,16 @@ def overlap_pairs(a, b):
     widest = float((b[:, 1, 0] - b[:, 0, 0]).max())
     start = np.searchsorted(lower, a[:, 0, 0] - widest, side="left")
     stop = np.searchsorted(lower, a[:, 1, 0], side="right")
-    counts = stop - start
-    i = np.repeat(np.arange(len(a)), counts)
-    j = order[np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-              + np.repeat(start, counts)]
+    runs = Groups(stop - start)
+    i = runs.index
+    j = order[runs.local() + runs.spread(start)]
     hit = np.all((a[i, 0] <= b[j, 1]) & (b[j, 0] <= a[i, 1]), axis=1)
     return i[hit], j[hit]
 
 
 def _groups(boxes):
     """Label of each box's cluster: boxes are linked when they overlap, transitively."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    i, j = overlap_pairs(boxes, boxes)
-    n = len(boxes)
-    graph = coo_matrix((np.ones(len(i), np.int8), (i, j)), shape=(n, n))
-    return connected_components(graph, directed=False)[1]
+    return connected_labels(len(boxes), *overlap_pairs(boxes, boxes))
 
 
 def combine(adds, cuts=(), clips=()):

@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
@@ -61,7 +62,7 @@ def bore(pipe, wall, start="open", end="open"):
     inner = Pipe(path, radii, pipe.sides, caps=pipe.caps, envelope=pipe.envelope,
                  frame=pipe.frame, normal=pipe.normals[0], end_normal=pipe.end_normal,
                  miter_limit=pipe.miter_limit, cap_segments=pipe.cap_segments,
-                 repair=pipe.repair)
+                 strict=pipe.strict)
     if path.closed or not (trim[start] or trim[end]):
         return inner
     if trim[start] + trim[end] >= path.length:
@@ -76,7 +77,7 @@ class Hollow:
     def mesh(self):
         """The part on its own: a closed solid (with voids where ends are closed)."""
         bodies, bores = self.solids()
-        return carve(bodies, bores, self.attributes()["kind"], attributes=self.attributes())
+        return carve(bodies, bores, self.attributes["kind"], attributes=self.attributes)
 
 
 class HollowPipe(Hollow):
@@ -116,9 +117,12 @@ class HollowPipe(Hollow):
         """``([outer mesh], [bore mesh])``: what an assembly adds and what it cuts."""
         return [self.pipe.mesh()], [self.bore.mesh()]
 
+    @property
     def attributes(self):
-        return {**self.pipe.attributes(), "kind": "hollow pipe", "wall": self.wall,
-                "ends": "/".join(self.ends)}
+        """Read-only mapping of the parameters that made this part."""
+        return _deprecated.Attributes({**self.pipe.attributes, "kind": "hollow pipe",
+                                       "wall": self.wall, "ends": "/".join(self.ends)},
+                                      "HollowPipe.attributes")
 
 
 class Junction(Hollow):
@@ -143,9 +147,12 @@ class Junction(Hollow):
         outer, bores = zip(*(p.solids() for p in self.pipes))
         return [m for ms in outer for m in ms], [m for ms in bores for m in ms]
 
+    @property
     def attributes(self):
-        return {"kind": "junction", "pipes": len(self.pipes),
-                "wall": max(p.wall for p in self.pipes)}
+        """Read-only mapping of the parameters that made this part."""
+        return _deprecated.Attributes({"kind": "junction", "pipes": len(self.pipes),
+                                       "wall": max(p.wall for p in self.pipes)},
+                                      "Junction.attributes")
 
 
 class HollowChain(Hollow):
@@ -184,7 +191,10 @@ class HollowChain(Hollow):
         options = {"transition": self.transition, "closed": self.closed}
         return [splice(*outers, **options)], [splice(*bores, **options)]
 
+    @property
     def attributes(self):
-        return {"kind": "hollow chain", "pipes": len(self.pipes), "wall": self.wall,
-                "ends": "/".join(self.ends), "transition": self.transition,
-                "closed": self.closed}
+        """Read-only mapping of the parameters that made this part."""
+        return _deprecated.Attributes({"kind": "hollow chain", "pipes": len(self.pipes),
+                                       "wall": self.wall, "ends": "/".join(self.ends),
+                                       "transition": self.transition, "closed": self.closed},
+                                      "HollowChain.attributes")

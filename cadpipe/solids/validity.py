@@ -1,11 +1,11 @@
 """Is a mesh a valid closed solid? The report behind ``cadpipe check``.
 
 A mesh is a valid solid, fit to print, boolean or collide, when it is closed
-(every edge has exactly two faces), its faces agree on orientation, they point
-outward (positive volume) and no two faces cut through each other.
+(``watertight``: every edge has exactly two faces, trimesh's meaning), its faces
+agree on orientation (``winding_consistent``; both together are
+:attr:`~cadpipe.Mesh.is_oriented`), they point outward (positive volume) and no two
+faces cut through each other.
 """
-
-import numpy as np
 
 from cadpipe.solids.intersect import self_intersections
 
@@ -18,14 +18,11 @@ def check_mesh(mesh):
     ``vertices``, ``watertight``, ``boundary_edges`` (edges of one face: holes),
     ``nonmanifold_edges`` (edges of three or more faces), ``winding_consistent``,
     ``outward``, ``volume``, ``area``, ``bounds`` (``[[min x, y, z], [max x, y, z]]``),
-    ``bodies`` (connected pieces) and ``self_intersections`` (pairs of faces that
-    cut through each other).
+    ``bodies`` (connected pieces) and ``intersecting_face_pairs`` (how many pairs of
+    faces cut through each other: :func:`~cadpipe.solids.intersect.self_intersections`).
     """
-    edges = np.sort(mesh.faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, faces_per_edge = np.unique(edges[:, 0] * len(mesh.vertices) + edges[:, 1],
-                                  return_counts=True)
-    boundary = int((faces_per_edge == 1).sum())
-    nonmanifold = int((faces_per_edge > 2).sum())
+    boundary = int((mesh.edge_face_counts == 1).sum())
+    nonmanifold = int((mesh.edge_face_counts > 2).sum())
     crossing = len(self_intersections(mesh))
     report = {
         "triangles": len(mesh.faces),
@@ -39,7 +36,7 @@ def check_mesh(mesh):
         "area": mesh.area,
         "bounds": mesh.bounds.tolist(),
         "bodies": mesh.n_bodies,
-        "self_intersections": crossing,
+        "intersecting_face_pairs": crossing,
     }
     problems = []
     if len(mesh.faces) == 0:
@@ -50,7 +47,7 @@ def check_mesh(mesh):
         problems.append(f"{nonmanifold} edges are shared by more than two faces")
     if not mesh.is_winding_consistent:
         problems.append("neighbouring faces disagree on orientation (inconsistent winding)")
-    if mesh.is_watertight and mesh.volume <= 0:
+    if mesh.is_oriented and mesh.volume <= 0:
         problems.append(f"faces point inward (volume {mesh.volume:.6g}); flip them")
     if crossing:
         problems.append(f"{crossing} pairs of faces cut through each other")
