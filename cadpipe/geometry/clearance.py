@@ -14,9 +14,9 @@ when the stretch of path joining them turns by less than a right angle: along su
 a stretch the distance between two points grows with their separation, so the
 tube cannot come back to itself there (what overlaps within it is the local
 check's business). What is left are segment pairs whose capsules meet; a fold is
-such a pair where the gap ``distance - reach_i - reach_j`` has a local minimum over
-the pairs of neighbouring segments (a chord across the tube, not along it). Cost:
-``O(N log N)`` in segments and memory linear in them, whatever the radii.
+such a pair whose convex units overlap (no separating plane among their faces and
+the line between their centres). Cost: ``O(N log N)`` in segments and memory linear
+in them, whatever the radii; straight stretches are single segments however long.
 """
 
 from dataclasses import dataclass
@@ -29,9 +29,11 @@ from cadpipe._vec import dot, norm
 MAX_FINDINGS = 10
 #: stretches joined by less turning than this cannot meet (the distance grows along them)
 RIGHT_ANGLE = 0.5 * np.pi - 1e-9
-#: a corner beyond its miter limit becomes a ball joint; its wedge is swept in steps of at
-#: most this angle, each widened by ``1 / cos(step / 2)`` to keep covering the ball
-JOINT_STEP = np.radians(15.0)
+#: a corner beyond its miter limit becomes a ball joint: a latitude-longitude polyhedron
+#: of this many sides around, its vertices this far out (in ring radii) so that every face
+#: lies beyond the ball, with a margin (the units' square ends must not touch its faces)
+BALL_SIDES = 16
+BALL_REACH = 1.001 / (np.cos(np.pi / BALL_SIDES) * np.cos(np.pi / BALL_SIDES))
 
 
 @dataclass(frozen=True)
@@ -176,12 +178,12 @@ def reach(tubes):
     miter stretch, or (beyond the miter limit, a ball joint) the widened radius."""
     stretch = tubes.miter_stretch
     over = stretch > tubes.miter_limit[tubes.lines.groups.index]
-    ball = 1.0 / np.cos(0.5 * JOINT_STEP)
-    return tubes.ring_radii * np.where(over, ball, np.maximum(stretch, 1.0))
+    return tubes.ring_radii * np.where(over, BALL_REACH, np.maximum(stretch, 1.0))
 
 
 def segment_distance(p, u, q, v):
-    """Closest distance between segments ``p + s u`` and ``q + t v`` (s, t in [0, 1]).
+    """Closest distance between segments ``p + s u`` and ``q + t v`` (s, t in [0, 1];
+    a segment may be a point).
 
     Parameters
     ----------
@@ -196,11 +198,10 @@ def segment_distance(p, u, q, v):
     a, b, c = dot(u, u, 0), dot(u, v, 0), dot(v, v, 0)
     d, e = dot(u, w, 0), dot(v, w, 0)
     den = a * c - b * b
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = np.where(den > 1e-12 * a * c, (b * e - c * d) / den, 0.0).clip(0.0, 1.0)
-        t = (b * s + e) / c
-        t = t.clip(0.0, 1.0)
-        s = ((b * t - d) / a).clip(0.0, 1.0)
+    zero = np.zeros_like(a)
+    s = np.divide(b * e - c * d, den, out=zero.copy(), where=den > 1e-12 * a * c).clip(0.0, 1.0)
+    t = np.divide(b * s + e, c, out=zero.copy(), where=c > 0).clip(0.0, 1.0)
+    s = np.divide(b * t - d, a, out=zero.copy(), where=a > 0).clip(0.0, 1.0)
     return norm(w + s * u - t * v, 0)
 
 
@@ -251,15 +252,17 @@ class _CapsuleTree:
 
 def distant_pairs(tubes):
     """Segment column pairs ``(i, j)``, ``i < j``, of one tube each, where the tube
-    comes back to itself: their capsules overlap and their gap has a local minimum.
+    comes back to itself: their capsules overlap and so do their convex units.
 
-    Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``.
+    Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``, and the
+    (K,) sorted segment columns of every overlapping pair connected to one of them
+    (the stretches a solid union must merge).
     """
     lines = tubes.lines
     groups = lines.groups
     empty = np.empty(0, np.int64)
     if groups.size < 3:
-        return empty, empty, np.empty(0)
+        return empty, empty, np.empty(0), empty
     tree = _CapsuleTree(tubes)
     leaf_tube = groups.index
     turning = np.cumsum(lines.turning_angles)                       # C[k]: points 0..k
@@ -293,27 +296,90 @@ def distant_pairs(tubes):
     i, j = a, b
     keep = (i != j) & (leaf_tube[a] == leaf_tube[b]) & tree.real[a] & tree.real[b]
     i, j = i[keep], j[keep]
-    prev_i, next_i = _neighbours(groups, i)
-    prev_j, next_j = _neighbours(groups, j)
+    _, next_i = _neighbours(groups, i)
+    _, next_j = _neighbours(groups, j)
     keep = (next_i != j) & (next_j != i)                           # not adjacent
-    i, j, prev_i, next_i, prev_j, next_j = (x[keep] for x in (i, j, prev_i, next_i,
-                                                               prev_j, next_j))
+    i, j = i[keep], j[keep]
     xyz, seg, r = lines.xyz, lines.segments, tree.reach
-
-    def gap_of(m, n):
-        return segment_distance(xyz[:, m], seg[:, m], xyz[:, n], seg[:, n]) - r[m] - r[n]
-
-    own = gap_of(i, j)
-    scale = r[i] + r[j]
-    minimum = own < 0
-    for m, n in ((prev_i, j), (next_i, j), (i, prev_j), (i, next_j)):
-        exists = (m >= 0) & (n >= 0)
-        m, n = np.where(exists, m, i), np.where(exists, n, j)
-        minimum &= ~exists | (own <= gap_of(m, n) + 1e-9 * scale)
-    i, j, own = i[minimum], j[minimum], own[minimum]
+    dist = segment_distance(xyz[:, i], seg[:, i], xyz[:, j], seg[:, j])
+    close = dist < r[i] + r[j]
+    i, j, dist = i[close], j[close], dist[close]
+    hit = _units_meet(tubes, i, j)
+    i, j, dist = i[hit], j[hit], dist[hit]
     order = np.lexsort((j, i))
-    i, j = i[order], j[order]
-    return i, j, (own + r[i] + r[j])[order]
+    i, j, dist = i[order], j[order], dist[order]
+    return i, j, dist, np.unique(np.concatenate([i, j]))
+
+
+#: unit pairs tested at once by :func:`_units_meet` (bounds its memory)
+UNIT_BLOCK = 2048
+
+
+def _unit_points(tubes, cols, sides):
+    """(P, 4 * sides, 3) points whose hull holds each segment's unit, and (P, 3) the
+    segments' directions: its two end rings (each twice), or at a corner beyond the
+    miter limit (a ball joint) a prism square to the segment around the ball."""
+    from cadpipe.geometry.rings import ring_basis
+
+    lines, groups = tubes.lines, tubes.groups
+    nxt = groups.following(np.arange(groups.size))[cols]
+    d = np.ascontiguousarray(lines.directions[:, cols].T)
+    out = []
+    for at in (cols, nxt):
+        ring = np.matmul(ring_basis(sides), tubes.axes[at])           # (P, sides, 3)
+        over = tubes.miter_stretch[at] > tubes.miter_limit[groups.index[at]]
+        ring_a, ring_b = ring, ring
+        if over.any():
+            centre = lines.xyz[:, at[over]].T[:, None]
+            rho = tubes.ring_radii[at[over]][:, None, None]
+            dd = d[over][:, None]
+            flat = ring[over] - centre
+            flat = (flat - np.sum(flat * dd, -1, keepdims=True) * dd) * (
+                BALL_REACH / np.cos(np.pi / sides))
+            ring_a, ring_b = ring.copy(), ring.copy()
+            ring_a[over] = centre + flat - BALL_REACH * rho * dd
+            ring_b[over] = centre + flat + BALL_REACH * rho * dd
+        out += [ring_a, ring_b]
+    return np.concatenate(out, axis=1), d
+
+
+def _units_meet(tubes, i, j):
+    """(P,) True where the convex units of segment columns ``i`` and ``j`` overlap by
+    more than a touch: no plane among both units' side faces, ring planes and the
+    line between their centres separates them."""
+    hit = np.zeros(len(i), bool)
+    if not len(i):
+        return hit
+    sides = tubes.sides[tubes.groups.index[i]]
+    for n in np.unique(sides).tolist():
+        rows = np.flatnonzero(sides == n)
+        for start in range(0, len(rows), UNIT_BLOCK):
+            block = rows[start:start + UNIT_BLOCK]
+            hit[block] = ~_separated(tubes, i[block], j[block], n)
+    return hit
+
+
+def _separated(tubes, i, j, sides):
+    """(P,) True where a candidate axis separates the units of columns ``i``, ``j``."""
+    pi, di = _unit_points(tubes, i, sides)
+    pj, dj = _unit_points(tubes, j, sides)
+    axes = []
+    for pts, d in ((pi, di), (pj, dj)):
+        ring = pts[:, :sides]
+        edge = np.roll(ring, -1, axis=1) - ring
+        axes += [np.cross(edge, d[:, None]), d[:, None]]
+        for k in (0, 2):                                    # the planes of both end rings
+            rk = pts[:, k * sides:(k + 1) * sides]
+            axes.append(np.cross(rk[:, 1] - rk[:, 0], rk[:, sides // 2 + 1] - rk[:, 0])[:, None])
+    axes.append((pi.mean(axis=1) - pj.mean(axis=1))[:, None])
+    axes = np.concatenate(axes, axis=1)                                # (P, A, 3)
+    size = np.linalg.norm(axes, axis=2, keepdims=True)
+    axes = axes / np.where(size > 0, size, 1.0)
+    a = np.einsum("pak,pvk->pav", axes, pi)
+    b = np.einsum("pak,pvk->pav", axes, pj)
+    tol = 1e-9 * (np.abs(pi).max(axis=(1, 2)) + np.abs(pj).max(axis=(1, 2)))[:, None]
+    apart = (a.max(axis=2) <= b.min(axis=2) + tol) | (b.max(axis=2) <= a.min(axis=2) + tol)
+    return apart.any(axis=1)
 
 
 def _neighbours(groups, cols):
@@ -332,7 +398,7 @@ def _distant_overlaps(tubes):
     see :func:`distant_pairs`."""
     lines = tubes.lines
     groups = lines.groups
-    i, j, dist = distant_pairs(tubes)
+    i, j, dist, merged = distant_pairs(tubes)
     r = reach(tubes)
     reach_i = np.maximum(r[i], groups.following(r)[i])
     reach_j = np.maximum(r[j], groups.following(r)[j])
@@ -346,5 +412,4 @@ def _distant_overlaps(tubes):
                 f"{dist[hit]:.6g} of itself, less than its reach {reach_i[hit]:.6g} + "
                 f"{reach_j[hit]:.6g} there{why}")
 
-    segments = _segments_around(groups, np.concatenate([i, j]), 1, 1)
-    return groups.index[i], describe, segments
+    return groups.index[i], describe, _segments_around(groups, merged, 0, 0)

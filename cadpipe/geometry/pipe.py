@@ -17,7 +17,7 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
-from cadpipe.geometry.clearance import JOINT_STEP
+from cadpipe.geometry.clearance import BALL_REACH, BALL_SIDES
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis
@@ -245,7 +245,7 @@ class Pipe:
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
                                 "path, reduce the radius, or leave strict=False to build the "
-                                "swept solid there", key="strict")
+                                "swept solid there")
         return self._swept_mesh(folds)
 
     def surface(self, *, cap_start=True, cap_end=True):
@@ -280,14 +280,13 @@ class Pipe:
     def _swept_mesh(self, folds):
         """The tube with each stretch that folds replaced by the union of its convex
         units (:func:`_units`), the clean stretches kept as they are, all united by
-        manifold3d and welded at float32 precision (:func:`weld_manifold`)."""
+        manifold3d and welded at float32 precision (:func:`welded_solid`)."""
         import manifold3d
 
         merged = np.zeros(len(self.path.segments), bool)
         merged[folds.segments] = True
-        overlap = OVERLAP * float(self.ring_radii.max())
         solids = [manifold3d.Manifold.hull_points(p)
-                  for p in _units(self, folds.segments, folds.joints, overlap)]
+                  for p in _units(self, folds.segments, folds.joints, tongue=TONGUE)]
         solids += [self._piece(a, b).to_manifold("pipe") for a, b in _runs(~merged, self.closed)]
         solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
         stretches = _runs(merged, self.closed)
@@ -296,7 +295,7 @@ class Pipe:
                                      else self.path.length)) for a, b in stretches]
         names = "; ".join(f"path points {a}..{(b + 1) % len(arc)} (arc length {s:.6g} to "
                           f"{e:.6g})" for (a, b), (s, e) in zip(stretches, spans))
-        return Mesh.from_manifold(weld_manifold(solid), attributes={
+        return welded_solid(solid, attributes={
             **self.attributes, "merged": names,
             "merged_arc_lengths": tuple(x for span in spans for x in span),
             "folds": folds.messages[0]})
@@ -334,19 +333,43 @@ class Pipe:
         return Mesh.trusted(vertices, faces)
 
 
-#: merged units overlap their neighbours by this fraction of the largest ring radius, so
-#: that the union joins them (booleans treat touching solids as apart)
-OVERLAP = 1e-4
+#: merged units reach this fraction of the ring radius into their neighbours (see _units)
+TONGUE = 1e-3
 
 
-def weld_manifold(solid):
-    """``solid`` simplified until no two of its vertices are closer than float32 can
-    tell apart at its size (a few units in the last place): what a union leaves
-    where pieces overlap slightly would otherwise merge in STL/3MF/OBJ/PLY files
-    and leave edges shared by more than two faces."""
-    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
-    size = float(np.abs(np.concatenate([low, high])).max())
-    return solid.as_original().simplify(FLOAT32_WELD * max(size, 1e-30))
+def welded_solid(solid, **kwargs):
+    """The :class:`Mesh` of a manifold3d ``solid`` with every cluster of vertices
+    closer than float32 can tell apart at its size (:data:`FLOAT32_WELD` of its
+    largest coordinate) merged into one, and the faces that collapse dropped.
+
+    A union leaves such clusters where its pieces meet at grazing angles; STL, 3MF,
+    OBJ and PLY files (float32) would merge them anyway, into edges shared by more
+    than two faces. Raises :class:`GeometryError` if merging them leaves a surface
+    that is not a closed, oriented 2-manifold.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    mesh = Mesh.from_manifold(solid, **kwargs)
+    vertices, faces = mesh.vertices, mesh.faces
+    tol = FLOAT32_WELD * max(float(np.abs(vertices).max(initial=0.0)), 1e-30)
+    pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
+    if not len(pairs):
+        return mesh
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(vertices), len(vertices)))
+    count, label = connected_components(graph, directed=False)
+    faces = label[faces]
+    keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
+    merged = np.empty((count, 3))
+    merged[label] = vertices
+    used, faces = np.unique(faces[keep], return_inverse=True)
+    welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
+    if not welded.is_oriented:
+        raise GeometryError("the swept solid's union left features too small for float32 "
+                            "files; smooth the path or change the radius slightly")
+    return welded
 
 
 #: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
@@ -366,67 +389,67 @@ def _runs(mask, closed):
     return [((a + shift) % n, (b + shift) % n) for a, b in zip(starts.tolist(), stops.tolist())]
 
 
-def _units(pipe, segments, joints, overlap):
+def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
     """Point sets whose convex hulls together make the tube along ``segments``.
 
     Each segment's unit is its two end rings; at a corner in ``joints`` (beyond the
     miter limit) the rings there are cut square to the segment instead and a ball
-    joint of hulls between rings swept about the corner (each step widened to keep
-    covering the ball) fills the wedge between them. Round caps of an open pipe join
-    the units of its end segments. Unit rings are pushed ``overlap`` along their
-    segment where another piece continues them.
+    (:func:`_ball`) holds the corner. Round caps of an open pipe join the units of
+    its end segments. Where another segment continues a unit, its ring there is
+    pushed ``overlap`` along the unit's own segment, and a ``tongue`` (a fraction of
+    the ring radius) adds the ring shrunk by that fraction and moved as far into the
+    next segment: the hulls then cross their neighbours at steep angles instead of
+    sharing a face (manifold3d may leave a shared face's corners doubled).
     """
     rings, path = pipe.rings(), pipe.path
     n, count = len(path), len(path.segments)
     joints = np.asarray(joints, np.int64)
     at_joint = np.zeros(n, bool)
     at_joint[joints] = True
-    directions, centres = path.directions, path.points
+    directions, centres, lengths = path.directions, path.points, path.segment_lengths
+    radii = pipe.ring_radii
+
+    def into(p, seg, sign):
+        """Ring ``p`` shrunk and moved into segment ``seg`` (``sign``: along or back)."""
+        step = min(tongue * float(radii[p]), 0.25 * float(lengths[seg]))
+        return centres[p] + (1 - tongue) * (rings[p] - centres[p]) + sign * step * directions[seg]
+
     pieces = []
     for k in np.asarray(segments).tolist():
         d = directions[k]
         ends = []
-        for p, sign in ((k, -1.0), ((k + 1) % n, 1.0)):
+        for p, sign, other in ((k, -1.0, k - 1), ((k + 1) % n, 1.0, k + 1)):
             ring = rings[p]
+            inner = pipe.closed or 0 <= other < count
             if at_joint[p]:
                 ring = ring - ((ring - centres[p]) @ d)[:, None] * d
-            inner = pipe.closed or 0 < (k if sign < 0 else k + 1) < n - 1
+            elif inner and tongue:
+                ends.append(into(p, other % count, sign))
             ends.append(ring + (sign * overlap * inner) * d)
         pieces.append(np.concatenate(ends))
     for k in joints.tolist():
-        pieces += _ball_joint(rings[k], centres[k], directions[k - 1], directions[k % count])
+        pieces.append(_ball(centres[k], float(radii[k])))
     if not pipe.closed and pipe.caps == "round":
         for row, sign, seg in ((0, -1, 0), (n - 1, 1, count - 1)):
             if seg in set(np.asarray(segments).tolist()):
                 axes, pole = cap_axes(pipe._tubes, row, sign, pipe)
                 cap = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
-                pieces.append(np.concatenate([rings[row], cap, pole[None]]))
+                inside = into(row, seg, -sign) if tongue else rings[row] - (
+                    sign * overlap) * directions[seg]
+                pieces.append(np.concatenate([rings[row], inside, cap, pole[None]]))
     return pieces
 
 
-def _ball_joint(ring, centre, d_in, d_out):
-    """Hulls filling a corner's wedge: the incoming segment's square-cut end ring at
-    ``centre`` swept about the corner to the outgoing one in steps of at most
-    :data:`~cadpipe.geometry.clearance.JOINT_STEP`, each step's rings widened by
-    ``1 / cos(step / 2)`` so that the chords cover the arcs."""
-    offsets = ring - centre
-    offsets = offsets - (offsets @ d_in)[:, None] * d_in
-    axis = np.cross(d_in, d_out)
-    size = np.linalg.norm(axis)
-    if size < 1e-9:                                # a reversal: any axis across d_in
-        axis = np.cross(d_in, np.eye(3)[int(np.argmin(np.abs(d_in)))])
-        size = np.linalg.norm(axis)
-    axis = axis / size
-    angle = float(np.arctan2(size, d_in @ d_out)) if size >= 1e-9 else np.pi
-    steps = max(1, int(np.ceil(angle / JOINT_STEP)))
-    widen = 1.0 / np.cos(0.5 * angle / steps)
-    sweep = []
-    for phi in np.linspace(0.0, angle, steps + 1):
-        c, s = np.cos(phi), np.sin(phi)
-        rotated = (offsets * c + np.cross(axis, offsets) * s
-                   + np.outer(offsets @ axis, axis) * (1 - c))
-        sweep.append(centre + widen * rotated)
-    return [np.concatenate([a, b]) for a, b in zip(sweep[:-1], sweep[1:])]
+def _ball(centre, radius):
+    """(P, 3) points whose convex hull contains the ball of ``radius`` about ``centre``
+    with a margin (:data:`~cadpipe.geometry.clearance.BALL_REACH`): a latitude-longitude
+    sphere whose faces all lie beyond the ball."""
+    lon = 2 * np.pi * np.arange(BALL_SIDES) / BALL_SIDES
+    lat = np.pi * (np.arange(1, BALL_SIDES // 2) / (BALL_SIDES // 2) - 0.5)
+    ring = np.stack([np.cos(lat)[:, None] * np.cos(lon), np.cos(lat)[:, None] * np.sin(lon),
+                     np.broadcast_to(np.sin(lat)[:, None], (len(lat), len(lon)))], -1)
+    unit = np.concatenate([ring.reshape(-1, 3), [[0, 0, -1], [0, 0, 1]]])
+    return centre + (BALL_REACH * radius) * unit
 
 
 def tubes_of(pipes):

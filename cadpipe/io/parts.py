@@ -18,10 +18,12 @@ from cadpipe.geometry.splice import splice
 def pipe(ctx, *, path: list | str | dict, radius: Number | list, sides: int | None = None,
          tolerance: Number | None = None, caps: str = "flat", envelope: bool = False,
          corners: str = "miter", bend_radius: Number | None = None, frame: str = "rmf",
-         wall: Number | None = None, ends: str | list = "open"):
+         wall: Number | None = None, ends: str | list = "open", miter_limit: Number = 4.0,
+         strict: bool = False):
     """A tube along ``path``; hollow with walls ``wall`` thick when ``wall`` is given."""
     tube = Pipe(ctx.path(path), radius, sides, tolerance=tolerance, caps=caps,
-                envelope=envelope, corners=corners, bend_radius=bend_radius, frame=frame)
+                envelope=envelope, corners=corners, bend_radius=bend_radius, frame=frame,
+                miter_limit=miter_limit, strict=strict)
     if wall is None:
         if ends != "open":
             raise InputError("ends: only a hollow pipe has open or closed ends; give wall too")
