@@ -77,12 +77,12 @@ def tube_folds(tubes, *, first_only=False):
         rank = np.arange(len(tube)) - np.searchsorted(tube, tube)   # hits in tube order
         for hit in np.flatnonzero(rank < MAX_FINDINGS).tolist():
             messages[tube[hit]].append(describe(hit))
-        for g, rows in segments.items():
-            merged[g].append(rows)
         if check is _miter_limit:
-            local = tube_local(tubes.groups, _miter_limit_points(tubes))
+            local = tube_local(tubes.groups, segments.pop("joints"))
             for g in np.unique(tube).tolist():
                 joints[g] = local[tube == g]
+        for g, rows in segments.items():
+            merged[g].append(rows)
         if first_only:
             break
     return [Folds(tuple(m), np.unique(np.concatenate(s)) if s else np.empty(0, np.int64), j)
@@ -134,7 +134,8 @@ def _miter_limit(tubes):
                 f"corner needs a miter stretch of {stretch[i]:.3g} > miter_limit={limit[i]:g} "
                 "(use corners='round' or a larger miter_limit)")
 
-    return lines.groups.index[bad], describe, _segments_around(lines.groups, bad, 1, 0)
+    return lines.groups.index[bad], describe, {**_segments_around(lines.groups, bad, 1, 0),
+                                               "joints": bad}
 
 
 def _local_overlaps(tubes):
@@ -219,12 +220,14 @@ class _CapsuleTree:
     """Capsules over runs of consecutive segments of a batch, level by level.
 
     Level 0 holds one capsule per column (its segment, radius its reach; an open
-    tube's last column is its end point, ``real`` is False there); each level
-    above pairs the nodes of the one below (a lone last node moves up as it is). A
-    node holds leaf positions ``lo..hi``, its chord runs from its first segment's
-    start to its last one's end, and its radius bounds the distance of every leaf
-    capsule below it from that chord (distance to a segment is convex, so the end
-    points of a child's chord bound it; the outer ones lie on the chord).
+    tube's last column repeats its last segment, ``real`` is False there). Level 1
+    holds runs of :data:`RUN` columns, each bounded by the ball about its chord's
+    middle that holds every point of its columns (cheap: one distance per point);
+    each level above pairs the nodes of the one below (a lone last node moves up as
+    it is). A node holds leaf positions ``lo..hi``, its chord runs from its first
+    segment's start to its last one's end, and its radius bounds the distance of
+    every leaf capsule below it from that chord (distance to a segment is convex, so
+    the end points of a child's chord bound it; the outer ones lie on the chord).
     """
 
     def __init__(self, tubes):
@@ -233,8 +236,27 @@ class _CapsuleTree:
         self.real = _is_segment(groups)
         r = reach(tubes)
         self.reach = np.maximum(r, groups.following(r))           # per column: its segment's
-        lo = np.arange(groups.size)
-        self.levels = [(lo, lo, lines.xyz, groups.following(lines.xyz), self.reach)]
+        size = groups.size
+        lo = np.arange(size)
+        start, seg = lines.xyz, lines.segments
+        self.levels = [(lo, lo, start, seg, self.reach)]        # level 0: segment vectors
+        lo = np.arange(0, size, RUN)
+        hi = np.minimum(lo + RUN - 1, size - 1)
+        a, b = start[:, lo], start[:, hi] + seg[:, hi]
+        middle = 0.5 * (a + b)
+        # a column's end is the next one's start (but around a closed tube's seam), so
+        # the starts and each run's end bound its points; whole runs as a (3, G, RUN) view
+        whole = size // RUN
+        far = np.empty(len(lo))
+        head = start[:, :whole * RUN].reshape(3, whole, RUN) - middle[:, :whole, None]
+        far[:whole] = np.sqrt(np.einsum("i...,i...->...", head, head).max(axis=1))
+        if whole < len(lo):
+            far[whole:] = norm(start[:, whole * RUN:] - middle[:, -1:], 0).max()
+        seam = groups.last[groups.closed]
+        at = seam // RUN
+        np.maximum.at(far, at, norm(start[:, seam] + seg[:, seam] - middle[:, at], 0))
+        radius = (np.maximum(far, 0.5 * norm(b - a, 0)) + np.maximum.reduceat(self.reach, lo))
+        self.levels.append((lo, hi, a, b, radius))
         while len(self.levels[-1][0]) > 1:
             lo, hi, a, b, rad = self.levels[-1]
             pairs = len(lo) // 2
@@ -250,28 +272,39 @@ class _CapsuleTree:
                                 np.concatenate([hi[1::2], hi[-1:]]), a0, b1, radius))
 
 
+#: columns per node of the capsule tree's first level above the segments
+RUN = 8
+
+
 def distant_pairs(tubes):
     """Segment column pairs ``(i, j)``, ``i < j``, of one tube each, where the tube
     comes back to itself: their capsules overlap and so do their convex units.
 
     Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``, and the
-    (K,) sorted segment columns of every overlapping pair connected to one of them
-    (the stretches a solid union must merge).
+    (K,) sorted segment columns of all of them (the stretches a union must merge).
     """
     lines = tubes.lines
     groups = lines.groups
     empty = np.empty(0, np.int64)
-    if groups.size < 3:
+    total = groups.sums(lines.turning_angles)
+    if groups.size < 3 or (total < RIGHT_ANGLE).all():         # no tube can come back
         return empty, empty, np.empty(0), empty
     tree = _CapsuleTree(tubes)
     leaf_tube = groups.index
     turning = np.cumsum(lines.turning_angles)                       # C[k]: points 0..k
-    total = groups.sums(lines.turning_angles)
     top = len(tree.levels) - 1
     a = b = np.zeros(1, np.int64)
     for level in range(top, -1, -1):
         lo, hi, start, end, radius = tree.levels[level]
-        if level < top:                                          # split each pair's nodes
+        if level == 0:                                           # runs into their columns
+            run_lo, run_hi = tree.levels[1][:2]
+            di, dj = (x.reshape(-1) for x in np.meshgrid(np.arange(RUN), np.arange(RUN),
+                                                         indexing="ij"))
+            ca, cb = run_lo[a][:, None] + di, run_lo[b][:, None] + dj
+            keep = (ca <= run_hi[a][:, None]) & (cb <= run_hi[b][:, None]) & (
+                (a != b)[:, None] | (ca < cb))
+            a, b = ca[keep], cb[keep]
+        elif level < top:                                        # split each pair's nodes
             count = len(lo)
             same = a == b
             ca = np.stack([2 * a, 2 * a, 2 * a + 1, 2 * a + 1], 1)
@@ -282,8 +315,11 @@ def distant_pairs(tubes):
         ta, tb = leaf_tube[la], leaf_tube[hb]
         one = (ta == leaf_tube[ha]) & (tb == leaf_tube[lb])     # each within one tube
         keep = ~one | (ta == tb)
-        gap = segment_distance(start[:, a], end[:, a] - start[:, a],
-                               start[:, b], end[:, b] - start[:, b])
+        if level:
+            gap = segment_distance(start[:, a], end[:, a] - start[:, a],
+                                   start[:, b], end[:, b] - start[:, b])
+        else:                                                    # end holds the segments
+            gap = segment_distance(start[:, a], end[:, a], start[:, b], end[:, b])
         keep &= gap < radius[a] + radius[b]
         # the stretch joining the two runs turns by at most `most`, around a closed
         # tube the other way by at least total - `least`
@@ -399,6 +435,8 @@ def _distant_overlaps(tubes):
     lines = tubes.lines
     groups = lines.groups
     i, j, dist, merged = distant_pairs(tubes)
+    if not len(i):
+        return i, None, {}
     r = reach(tubes)
     reach_i = np.maximum(r[i], groups.following(r)[i])
     reach_j = np.maximum(r[j], groups.following(r)[j])

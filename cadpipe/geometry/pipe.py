@@ -338,9 +338,10 @@ TONGUE = 1e-3
 
 
 def welded_solid(solid, **kwargs):
-    """The :class:`Mesh` of a manifold3d ``solid`` with every cluster of vertices
-    closer than float32 can tell apart at its size (:data:`FLOAT32_WELD` of its
-    largest coordinate) merged into one, and the faces that collapse dropped.
+    """The :class:`Mesh` of a manifold3d ``solid`` simplified (manifold3d's own edge
+    collapses) to what float32 can tell apart at its size (:data:`FLOAT32_WELD` of
+    its largest coordinate), then every cluster of vertices still closer than that
+    (where sheets touch) merged into one and the faces that collapse dropped.
 
     A union leaves such clusters where its pieces meet at grazing angles; STL, 3MF,
     OBJ and PLY files (float32) would merge them anyway, into edges shared by more
@@ -351,9 +352,10 @@ def welded_solid(solid, **kwargs):
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    mesh = Mesh.from_manifold(solid, **kwargs)
+    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
+    tol = FLOAT32_WELD * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    mesh = Mesh.from_manifold(solid.as_original().simplify(tol), **kwargs)
     vertices, faces = mesh.vertices, mesh.faces
-    tol = FLOAT32_WELD * max(float(np.abs(vertices).max(initial=0.0)), 1e-30)
     pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
     if not len(pairs):
         return mesh
@@ -364,7 +366,12 @@ def welded_solid(solid, **kwargs):
     keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
     merged = np.empty((count, 3))
     merged[label] = vertices
-    used, faces = np.unique(faces[keep], return_inverse=True)
+    faces = faces[keep]
+    # sheets that touched along faces: such a face now comes twice, facing both ways
+    _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                                   return_counts=True)
+    faces = faces[counts[index.reshape(-1)] == 1]
+    used, faces = np.unique(faces, return_inverse=True)
     welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
     if not welded.is_oriented:
         raise GeometryError("the swept solid's union left features too small for float32 "
