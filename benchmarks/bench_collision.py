@@ -26,6 +26,7 @@ Run: .venv/bin/python benchmarks/bench_collision.py [--configs N] [--repeat R]
 
 import argparse
 import time
+from pathlib import Path as FilePath
 
 import fcl
 import numpy as np
@@ -33,7 +34,7 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 from cadpipe import CollisionWorld, Mesh, Path, Pipe
-from cadpipe.collision import Joint, Robot
+from cadpipe.collision import Box, Joint, Robot
 from cadpipe.collision.bodies import as_body
 
 
@@ -199,11 +200,276 @@ def pipe_pair(poses, repeat):
         print(f"            {label:25s} {count / seconds:10.0f}/s   ratio {t_fcl / seconds:6.2f}x")
 
 
+# -- the Panda cell: one state at a time against MuJoCo, pybullet, coal and FCL ------------
+PANDA = FilePath(__file__).resolve().parents[1] / "assets" / "robots" / "panda"
+
+
+def interleaved(runs, repeat):
+    """Median seconds of each of ``runs`` (name -> callable), timed A B A B ... after
+    one untimed round (caches, lazily built trees, JIT compilation); and each run's
+    last result."""
+    results = {name: run() for name, run in runs.items()}
+    times = {name: [] for name in runs}
+    for _ in range(repeat):
+        for name, run in runs.items():
+            start = time.perf_counter()
+            results[name] = run()
+            times[name].append(time.perf_counter() - start)
+    return {name: float(np.median(t)) for name, t in times.items()}, results
+
+
+def shifted(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+def panda_cell():
+    """The Panda (SRDF: 35 allowed pairs with the adjacent links) and 4 obstacles: a
+    table, a post, a workpiece (an 800-triangle torus) and a cable duct (a pipe)."""
+    robot = Robot.from_urdf(PANDA / "panda.urdf", srdf=PANDA / "panda.srdf")
+    lower = np.array([j.lower for j in robot.joints if j.name in robot.actuated])
+    upper = np.array([j.upper for j in robot.joints if j.name in robot.actuated])
+    obstacles = {
+        "table": (Box((1.4, 1.4, 0.04)), shifted(0.3, 0.0, -0.05)),
+        "post": (Box((0.1, 0.1, 1.2)), shifted(-0.35, -0.45, 0.6)),
+        "workpiece": (Mesh.from_trimesh(trimesh.creation.torus(0.18, 0.05, major_sections=40,
+                                                               minor_sections=10)),
+                      shifted(0.55, 0.1, 0.35)),
+        "duct": (Pipe(Path.spline([[-0.4, 0.55, 0.05], [0.1, 0.5, 0.7], [0.6, 0.35, 0.95]],
+                                  step=0.05), 0.04, caps="round"), np.eye(4)),
+    }
+    return robot, lower, upper, obstacles
+
+
+def _fcl_object(mesh):
+    bvh = fcl.BVHModel()
+    bvh.beginModel(len(mesh.vertices), len(mesh.faces))
+    bvh.addSubModel(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64))
+    bvh.endModel()
+    return fcl.CollisionObject(bvh, fcl.Transform())
+
+
+def _obstacle_mesh(obj):
+    return obj.mesh() if isinstance(obj, Pipe) else as_body(obj, "x").mesh
+
+
+class FclLoop:
+    """The python-fcl loop a user writes (issue 11): FK, then the robot's pairs (self
+    pairs not allowed, links against obstacles) until the first hit."""
+
+    def __init__(self, robot, obstacles, allowed):
+        self.robot, self.links = robot, list(robot.link_meshes)
+        self.objects = {n: _fcl_object(m) for n, m in robot.link_meshes.items()}
+        for name, (obj, pose) in obstacles.items():
+            self.objects[name] = o = _fcl_object(_obstacle_mesh(obj))
+            o.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        names = self.links + list(obstacles)
+        self.pairs = [(self.objects[a], self.objects[b]) for i, a in enumerate(names)
+                      for b in names[i + 1:] if frozenset((a, b)) not in allowed
+                      and (a in robot.link_meshes or b in robot.link_meshes)]
+        self.request = fcl.CollisionRequest()
+
+    def __call__(self, q):
+        for link, pose in zip(self.links, self.robot.link_pose_array(q)[0]):
+            self.objects[link].setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        for a, b in self.pairs:
+            if fcl.collide(a, b, self.request, fcl.CollisionResult()):
+                return True
+        return False
+
+
+class CoalLoop(FclLoop):
+    """The same loop through coal (hpp-fcl's successor)."""
+
+    def __init__(self, robot, obstacles, allowed):
+        import coal
+
+        self.coal, self.robot, self.links = coal, robot, list(robot.link_meshes)
+
+        def model(mesh):
+            m = coal.BVHModelOBBRSS()
+            m.beginModel(len(mesh.faces), len(mesh.vertices))
+            m.addVertices(np.asarray(mesh.vertices, np.float64))
+            m.addTriangles(np.asarray(mesh.faces, np.int64))
+            m.endModel()
+            return m
+
+        self.models = {n: model(m) for n, m in robot.link_meshes.items()}
+        self.poses = {}
+        for name, (obj, pose) in obstacles.items():
+            self.models[name] = model(_obstacle_mesh(obj))
+            self.poses[name] = coal.Transform3s(pose[:3, :3], pose[:3, 3])
+        names = self.links + list(obstacles)
+        self.pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]
+                      if frozenset((a, b)) not in allowed
+                      and (a in robot.link_meshes or b in robot.link_meshes)]
+        self.request = coal.CollisionRequest()
+
+    def __call__(self, q):
+        coal, poses = self.coal, self.poses
+        for link, pose in zip(self.links, self.robot.link_pose_array(q)[0]):
+            poses[link] = coal.Transform3s(pose[:3, :3], pose[:3, 3])
+        for a, b in self.pairs:
+            result = coal.CollisionResult()
+            if coal.collide(self.models[a], poses[a], self.models[b], poses[b], self.request,
+                            result):
+                return True
+        return False
+
+
+class Bullet:
+    """pybullet: the URDF with self-collision, the allowed pairs filtered out, the
+    obstacles as static shapes (concave triangle meshes); per state reset the
+    joints, run collision detection, look for a contact at distance <= 0."""
+
+    def __init__(self, robot, obstacles, allowed):
+        import pybullet as pb
+
+        self.pb = pb
+        self.client = pb.connect(pb.DIRECT)
+        self.body = pb.loadURDF(str(PANDA / "panda.urdf"), useFixedBase=True,
+                                flags=pb.URDF_USE_SELF_COLLISION, physicsClientId=self.client)
+        index = {pb.getBodyInfo(self.body, physicsClientId=self.client)[0].decode(): -1}
+        joints = {}
+        for j in range(pb.getNumJoints(self.body, physicsClientId=self.client)):
+            info = pb.getJointInfo(self.body, j, physicsClientId=self.client)
+            index[info[12].decode()] = j
+            joints[info[1].decode()] = j
+        for a, b in (tuple(p) for p in allowed):
+            if a in index and b in index:
+                pb.setCollisionFilterPair(self.body, self.body, index[a], index[b], 0,
+                                          physicsClientId=self.client)
+        self.joints = [joints[n] for n in robot.actuated]
+        self.mimic = joints["panda_finger_joint2"], robot.actuated.index("panda_finger_joint1")
+        for obj, pose in obstacles.values():
+            mesh = _obstacle_mesh(obj)
+            shape = pb.createCollisionShape(
+                pb.GEOM_MESH, vertices=np.asarray(mesh.vertices).tolist(),
+                indices=np.asarray(mesh.faces).ravel().tolist(),
+                flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=self.client)
+            quat = Rotation.from_matrix(pose[:3, :3]).as_quat()
+            pb.createMultiBody(0, shape, basePosition=pose[:3, 3].tolist(),
+                               baseOrientation=quat.tolist(), physicsClientId=self.client)
+
+    def __call__(self, q):
+        pb, client = self.pb, self.client
+        for j, v in zip(self.joints, q):
+            pb.resetJointState(self.body, j, v, physicsClientId=client)
+        pb.resetJointState(self.body, self.mimic[0], q[self.mimic[1]], physicsClientId=client)
+        pb.performCollisionDetection(physicsClientId=client)
+        return any(c[8] <= 0 for c in pb.getContactPoints(physicsClientId=client))
+
+
+class Mujoco:
+    """MuJoCo: the URDF compiled by MuJoCo (its meshes as convex hulls, as MuJoCo
+    collides meshes), the allowed pairs excluded, the obstacles as world geoms (the
+    duct as its capsules, the torus as its mesh's hull); per state
+    ``mj_kinematics`` + ``mj_collision`` and a contact at distance <= 0."""
+
+    def __init__(self, robot, obstacles, allowed):
+        import mujoco
+
+        self.mujoco = mujoco
+        text = (PANDA / "panda.urdf").read_text()
+        text = text.replace("<link", f'<mujoco><compiler meshdir="{PANDA / "meshes"}" '
+                            'discardvisual="true" fusestatic="false"/></mujoco><link', 1)
+        text = text.replace('filename="meshes/', 'filename="')
+        spec = mujoco.MjSpec.from_string(text)
+        links = set(robot.link_meshes)
+        for a, b in (tuple(p) for p in allowed):
+            if a in links and b in links:
+                spec.add_exclude(bodyname1=a, bodyname2=b)
+        for name, (obj, pose) in obstacles.items():
+            quat = Rotation.from_matrix(pose[:3, :3]).as_quat()[[3, 0, 1, 2]]
+            if isinstance(obj, Box):
+                spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX,
+                                        size=0.5 * np.array(obj.size), pos=pose[:3, 3],
+                                        quat=quat)
+            elif isinstance(obj, Pipe):
+                chain = as_body(obj, name).chain
+                for a, b, r in zip(chain.starts, chain.ends, chain.start_radii):
+                    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+                                            fromto=np.r_[a, b], size=[r, 0, 0])
+            else:
+                spec.add_mesh(name=name, uservert=np.asarray(obj.vertices).ravel(),
+                              userface=np.asarray(obj.faces).ravel())
+                spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
+                                        pos=pose[:3, 3], quat=quat)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        names = [self.model.joint(j).name for j in range(self.model.njnt)]
+        self.address = [self.model.jnt_qposadr[names.index(n)] for n in robot.actuated]
+        self.mimic = self.model.jnt_qposadr[names.index("panda_finger_joint2")], \
+            robot.actuated.index("panda_finger_joint1")
+
+    def __call__(self, q):
+        mujoco, data = self.mujoco, self.data
+        data.qpos[self.address] = q
+        data.qpos[self.mimic[0]] = q[self.mimic[1]]
+        mujoco.mj_kinematics(self.model, data)
+        mujoco.mj_collision(self.model, data)
+        return bool(data.ncon) and bool((data.contact.dist[:data.ncon] <= 0).any())
+
+
+def panda(configs, repeat):
+    robot, lower, upper, obstacles = panda_cell()
+    world = CollisionWorld()
+    world.add_robot(robot, 0.5 * (lower + upper))
+    for name, (obj, pose) in obstacles.items():
+        world.add(name, obj, transform=pose)
+    allowed = {frozenset((a, b)) for a, b, _ in world.allowed}
+    qs = np.random.default_rng(0).uniform(lower, upper, (configs, len(lower)))
+    peers = {"python-fcl loop, early exit": FclLoop}
+    for label, make in (("coal loop, early exit", CoalLoop), ("pybullet", Bullet),
+                        ("MuJoCo", Mujoco)):
+        try:
+            peers[label] = make(robot, obstacles, allowed)
+        except ImportError as exc:
+            print(f"  ({label} skipped: {exc}; pip install cadpipe[bench])")
+    peers["python-fcl loop, early exit"] = FclLoop(robot, obstacles, allowed)
+
+    def state_by_state(check):
+        def run():
+            out = np.empty(len(qs), bool)
+            for c, q in enumerate(qs):
+                out[c] = check(q)
+            return out
+        return run
+
+    def ours(**options):
+        def check(q):
+            world.set_joints("panda", q)
+            return bool(world.check(**options))
+        return check
+
+    runs = {"cadpipe set_joints + check(first_hit=True)": state_by_state(ours(first_hit=True)),
+            "cadpipe set_joints + check()": state_by_state(ours())}
+    runs.update({label: state_by_state(peer) for label, peer in peers.items()})
+    runs["cadpipe check_path (batched)"] = lambda: world.check_path("panda", qs).colliding
+    seconds, verdicts = interleaved(runs, repeat)
+    reference = verdicts["cadpipe set_joints + check()"]
+    print(f"Panda cell: {len(robot.link_meshes)} links, {len(obstacles)} obstacles, "
+          f"{len(allowed)} allowed pairs, {configs} random configurations "
+          f"({int(reference.sum())} colliding); medians of {repeat} interleaved runs")
+    base = seconds["pybullet"] if "pybullet" in seconds else None
+    for label, s in seconds.items():
+        ratio = f"   {base / s:5.2f}x pybullet's rate" if base else ""
+        agree = int((verdicts[label] == reference).sum())
+        print(f"  {label:44s} {configs / s:9.0f} states/s{ratio}   same verdict "
+              f"{agree}/{configs}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--configs", type=int, default=10_000)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--only", choices=("panda", "arm", "pipes"))
     args = parser.parse_args()
+    if args.only in (None, "panda"):
+        panda(args.configs, args.repeat)
+    if args.only not in (None, "arm"):
+        return
     robot_cell(args.configs, args.repeat)
     pipe_pair(args.configs, args.repeat)
 

@@ -1,8 +1,10 @@
 """Vector helpers over an axis of 3 components (the last by default: rows of (N, 3)).
 
 The batch code keeps vectors component-first, ``(3, N)`` with ``axis=0``: every
-operation then runs over long contiguous rows, several times faster than over
-rows of 3. einsum is several times faster than np.linalg.norm either way.
+operation then runs over long contiguous rows. Measured by ``benchmarks/bench_vec.py``
+(100,000 vectors, medians; docs/performance.md): these helpers run 1.9-2.8x faster
+on ``(3, N)`` than on ``(N, 3)``; on ``(3, N)``, ``norm`` (einsum) is 1.2x
+``np.linalg.norm``, ``dot`` 1.4-1.6x ``(a * b).sum``, ``cross`` 10-15x ``np.cross``.
 """
 
 import numpy as np

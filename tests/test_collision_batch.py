@@ -266,3 +266,53 @@ def test_tree_radii_bound_every_node(points, radii, seed):
             inside = a + t[:, None] * u + offset
             run = Chain(chain.centers, chain.radii, chain.edges[lo:hi])
             assert np.all(run.signed_distance(inside) <= 1e-12)
+
+
+def test_first_hit_gives_the_same_verdict_and_stops_early():
+    world = cell()
+    q = np.random.default_rng(13).uniform(-2.8, 2.8, (300, 4))
+    stopped_early = 0
+    batch = world.check_path("arm", q)
+    for c, single in enumerate(q):
+        world.set_joints("arm", single)
+        quick = world.check(first_hit=True)
+        full = batch[c]
+        assert bool(quick) == bool(full)
+        # what it did decide, it decided as the full check did
+        for mine, theirs in zip(quick.pairs, full.pairs):
+            assert mine.decided_by in (theirs.decided_by, "not checked")
+        if quick:
+            assert len(quick.collisions) >= 1
+            stopped_early += any(p.decided_by == "not checked" for p in quick.pairs)
+        # a full check afterwards decides the rest, as the batch did
+        assert answers(world.check()) == answers(full)
+    assert stopped_early > 10
+
+
+def test_only_a_group_leaves_obstacle_pairs_unchecked():
+    world = cell()
+    world.set_joints("arm", [0.3, 0.2, -0.4, 0.1])
+    full, robot = world.check(), world.check(only="arm")
+    for mine, theirs in zip(robot.pairs, full.pairs):
+        involves = "arm" in (world.group(mine.a), world.group(mine.b))
+        assert mine.decided_by == (theirs.decided_by if involves or theirs.decided_by ==
+                                   "allowed" else "not checked")
+    with pytest.raises(InputError, match="no object in that group"):
+        world.check(only="crane")
+
+
+def test_answers_are_kept_by_version_not_by_hand():
+    world = cell()
+    scene_before = world.layout_version
+    world.check()
+    versions = world.pose_versions.copy()
+    world.set_joints("arm", [0.1, 0.2, 0.3, 0.4])
+    moved = world.pose_versions - versions
+    assert moved.tolist() == [1 if world.group(n) == "arm" else 0 for n in world.names]
+    assert world.layout_version == scene_before
+    with pytest.raises(ValueError):
+        world.pose_versions[0] = 7          # read-only: only the scene's calls move things
+    world.add("late", Sphere(0.1), transform=shift(5, 5, 5))
+    assert world.layout_version == scene_before + 1
+    report = world.check()
+    assert len(report.pairs) == len(world.names) * (len(world.names) - 1) // 2

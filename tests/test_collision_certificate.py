@@ -117,6 +117,17 @@ def test_the_verifier_rejects_broken_certificates():
     assert not Certificate(**{**fields, "chain": loop}).verify()
 
 
+def test_the_verifier_uses_none_of_the_search_code():
+    import inspect
+
+    from cadpipe.collision import certificate
+
+    used = set(inspect.getclosurevars(certificate.verify).globals)
+    for helper in ("_even_odd", "_outward"):
+        used |= set(inspect.getclosurevars(getattr(certificate, helper)).globals)
+    assert used <= {"np", "_even_odd", "_outward"}
+
+
 def test_check_can_decide_pairs_by_certificate():
     world, _ = chain_case()
     report = world.check(certify=True)

@@ -152,19 +152,12 @@ def test_inside_tells_where_a_tool_path_leaves_the_pipe():
     assert outside.exit_segment == 0 and outside.exit_fraction == 0.0
 
 
-def test_sweep_and_prune_matches_all_pairs():
-    rng = np.random.default_rng(4)
-    lo = rng.uniform(0, 10, (300, 3))
-    hi = lo + rng.uniform(0, 1.5, (300, 3))
-    i, j = np.triu_indices(300, k=1)
-    keep = bounds.boxes_overlap(lo[i], hi[i], lo[j], hi[j])
-    np.testing.assert_array_equal(bounds.sweep_and_prune(lo, hi),
-                                  np.stack([i[keep], j[keep]], axis=1))
-    world = CollisionWorld()                 # a scene large enough to sweep
-    for k in range(bounds.SWEEP_MIN_OBJECTS + 2):
+def test_a_large_scene_finds_exactly_the_touching_neighbours():
+    world = CollisionWorld()
+    for k in range(60):
         world.add(f"s{k}", Sphere(0.3), transform=shift(0.5 * k))
     assert [(a, b) for a, b, _ in world.check().collisions] == [
-        (f"s{k}", f"s{k + 1}") for k in range(bounds.SWEEP_MIN_OBJECTS + 1)]
+        (f"s{k}", f"s{k + 1}") for k in range(59)]
 
 
 def test_report_to_dict_is_plain_data():
@@ -228,3 +221,49 @@ def test_pipes_are_never_tessellated():
     world.add("p", Pipe(Path([[0, 0, 0], [1, 0, 0], [2, 1, 0]]), 0.1))
     body = world._bodies[0]
     assert body.kind == "chain" and body.mesh is None
+
+
+@pytest.mark.parametrize("size", [1e-6, 1e-3, 1.0])
+@pytest.mark.parametrize("offset", [0.0, 1.0, 300.0])
+def test_bounds_contain_objects_of_any_size_anywhere(size, offset):
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(int(size * 1e6) + int(offset))
+    mesh = trimesh.creation.icosphere(2, radius=size)
+    mesh.vertices = mesh.vertices * [1.0, 0.4, 0.2]          # an ellipsoid: a real OBB fit
+    world = CollisionWorld()
+    pose = np.eye(4)
+    pose[:3, :3] = Rotation.random(random_state=rng).as_matrix()
+    pose[:3, 3] = offset + size * rng.uniform(-1, 1, 3)
+    world.add("part", Mesh.from_trimesh(mesh), transform=pose)
+    points = mesh.vertices @ pose[:3, :3].T + pose[:3, 3]
+    lo, hi = world.bounds("part")
+    assert np.all(points >= lo) and np.all(points <= hi)
+    body = world.body("part")
+    centre, axes, half = body.obb
+    assert np.all(np.abs((mesh.vertices - centre) @ axes) <= half)
+    kdop, _, _ = world.checker.placed()
+    reach = points @ bounds.KDOP_DIRECTIONS.T
+    assert np.all(reach >= kdop[0, 0]) and np.all(reach <= kdop[0, 1])
+
+
+def test_micrometre_meshes_are_checked_like_metre_ones():
+    import fcl
+
+    world = CollisionWorld()
+    ball = trimesh.creation.icosphere(2, radius=1e-6)
+    world.add("a", Mesh.from_trimesh(ball))
+    world.add("b", Mesh.from_trimesh(ball), transform=shift(1.9e-6))
+    world.add("c", Mesh.from_trimesh(ball), transform=shift(4.5e-6))
+    report = world.check()
+    objects = []
+    for x in (0.0, 1.9e-6, 4.5e-6):
+        bvh = fcl.BVHModel()
+        bvh.beginModel(len(ball.vertices), len(ball.faces))
+        bvh.addSubModel(ball.vertices, ball.faces)
+        bvh.endModel()
+        objects.append(fcl.CollisionObject(bvh, fcl.Transform(np.array([x, 0.0, 0.0]))))
+    expected = {(n[i], n[j]) for n in ["abc"] for i in range(3) for j in range(i + 1, 3)
+                if fcl.collide(objects[i], objects[j], fcl.CollisionRequest(),
+                               fcl.CollisionResult())}
+    assert {(a, b) for a, b, _ in report.collisions} == expected == {("a", "b")}

@@ -71,7 +71,7 @@ def test_closed_flat_ends_keep_a_wall_as_thick_as_the_side_wall():
 def tee(ends_of_branch=("open", "open")):
     run = HollowPipe(Pipe([[-1, 0, 0], [1, 0, 0]], 0.2, 24), 0.04)
     branch = HollowPipe(Pipe([[0, 0, 0], [0, 1, 0]], 0.2, 24), 0.04, ends=ends_of_branch)
-    return Junction([run, branch])
+    return Junction(run, branch)
 
 
 def test_tee_bores_connect_through_the_run_wall():
@@ -90,8 +90,8 @@ def test_tee_with_a_closed_branch_end_is_a_bent_tube():
 def test_y_junction_from_round_capped_branches_meets_at_the_node():
     wall, r = 0.01, 0.05
     legs = [[[0, 0, 0], [0, 0, -0.6]], [[0, 0, 0], [-0.3, 0, 0.5]], [[0, 0, 0], [0.3, 0, 0.5]]]
-    y = Junction(HollowPipe(Pipe(p, r, 24, caps="round"), wall, ends=("closed", "open"))
-                 for p in legs)
+    y = Junction(*(HollowPipe(Pipe(p, r, 24, caps="round"), wall, ends=("closed", "open"))
+                   for p in legs))
     mesh = y.mesh()
     assert mesh.is_watertight and shells(mesh) == [pytest.approx(mesh.volume)]
     assert mesh.genus == 2
@@ -146,7 +146,7 @@ def chain_pipes():
 
 @pytest.mark.parametrize("transition", ["lcm", "merge"])
 def test_hollow_chain_bore_lies_inside_the_spliced_outer(transition):
-    chain = HollowChain(chain_pipes(), 0.02, ends="closed", transition=transition)
+    chain = HollowChain(*chain_pipes(), wall=0.02, ends="closed", transition=transition)
     mesh = chain.mesh()
     (outer,), (inner,) = chain.solids()
     # outer - bore has exactly their volume difference only if the bore is inside
@@ -156,7 +156,7 @@ def test_hollow_chain_bore_lies_inside_the_spliced_outer(transition):
 
 
 def test_open_hollow_chain_is_one_tube_through_its_transitions():
-    mesh = HollowChain(chain_pipes(), 0.02).mesh()
+    mesh = HollowChain(*chain_pipes(), wall=0.02).mesh()
     assert mesh.is_watertight and mesh.n_bodies == 1 and mesh.genus == 1
     assert not inside(mesh, [1.0, 0, 0])         # the axis where the transition begins
 
@@ -166,7 +166,7 @@ def test_closed_hollow_chain_is_a_ring_shell_around_a_ring_void():
         t = np.radians(np.linspace(a0, a1, 20))
         return np.c_[np.cos(t), np.sin(t), np.zeros_like(t)]
 
-    chain = HollowChain([Pipe(arc(0, 160), 0.1, 12), Pipe(arc(180, 340), 0.1, 16)], 0.02,
+    chain = HollowChain(Pipe(arc(0, 160), 0.1, 12), Pipe(arc(180, 340), 0.1, 16), wall=0.02,
                         closed=True)
     mesh = chain.mesh()
     (outer,), (inner,) = chain.solids()

@@ -146,16 +146,17 @@ def test_envelope_encloses_the_round_tube():
     assert not Pipe(path, 0.1, sides=8).mesh().contains(points).all()
 
 
-def test_patent_frame_is_the_source_rule_with_a_fallback():
+def test_patent_frame_is_the_source_rule_and_refuses_where_undefined():
     pts = np.array([[1.0, 0, 0], [1, 1, 0], [1, 2, 0]])
     pipe = Pipe(pts, 0.1, sides=6, frame="patent")
     expected = np.cross(pts, [0, 1, 0])
     expected /= np.linalg.norm(expected, axis=1, keepdims=True)
     assert np.allclose(pipe.normals, expected)
-    # a path pointing at the origin has no OP x L: the rotation-minimizing normal is used
+    # a path pointing at the origin has no OP x L: refused, not silently replaced
     radial = Pipe([[1.0, 1, 1], [2, 2, 2]], 0.1, sides=6, frame="patent")
-    assert np.isfinite(radial.normals).all()
-    assert_solid(radial.mesh())
+    with pytest.raises(cadpipe.InputError, match="undefined at path point 0") as info:
+        radial.mesh()
+    assert info.value.key == "frame" and info.value.index == 0
 
 
 def test_sides_from_chordal_tolerance():

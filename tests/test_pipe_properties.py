@@ -45,8 +45,7 @@ def build(pipe):
     try:
         return pipe.mesh()
     except GeometryError:
-        pipe.repair = True
-        return pipe.mesh()
+        return pipe.replace(repair=True).mesh()
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])

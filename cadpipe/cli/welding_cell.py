@@ -73,8 +73,8 @@ def build_cell():
     def leg(points):
         return HollowPipe(Pipe(points, 0.03, sides=24), wall=0.004, ends="open")
 
-    coolant = Junction([leg([[0.25, -0.45, 0.20], [0.25, 0.15, 0.20]]),
-                        leg([[0.25, 0.0, 0.20], [0.25, 0.0, 0.40]])])
+    coolant = Junction(leg([[0.25, -0.45, 0.20], [0.25, 0.15, 0.20]]),
+                       leg([[0.25, 0.0, 0.20], [0.25, 0.0, 0.40]]))
 
     arm = Robot.from_urdf(ARM)
     scene = Assembly(units="m", name="weld_cell")

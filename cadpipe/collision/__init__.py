@@ -5,7 +5,7 @@ Meshes go through FCL's BVHs (plus a containment test FCL lacks); pipes are
 checked analytically as chains of round cones; robots come from URDF.
 """
 
-from cadpipe.collision.bodies import Box, Capsule, Sphere
+from cadpipe.collision.bodies import Box, Capsule, Sphere, Surface
 from cadpipe.collision.cell import world_from_spec
 from cadpipe.collision.certificate import Certificate
 from cadpipe.collision.fixture import PipeContainment

@@ -54,6 +54,14 @@ class Capsule:
         object.__setattr__(self, "length", float(as_positive(self.length, "capsule length")))
 
 
+@dataclass(frozen=True)
+class Surface:
+    """An open (or non-manifold) triangle mesh checked as given: it collides by its
+    triangles, and nothing is ever inside it (a stock robot's collision mesh)."""
+
+    mesh: Mesh
+
+
 def box_mesh(size):
     """The closed 12-triangle mesh of a centred box."""
     import trimesh
@@ -64,10 +72,11 @@ def box_mesh(size):
 class Body:
     """A collision shape in its own frame; see :func:`as_body`."""
 
-    def __init__(self, *, mesh=None, chain=None):
+    def __init__(self, *, mesh=None, chain=None, closed=True):
         self.mesh = mesh
         self.chain = chain
         self.kind = "mesh" if mesh is not None else "chain"
+        self.closed = closed            # False: a Surface, with no inside
 
     @cached_property
     def hull(self):
@@ -194,6 +203,8 @@ def as_body(obj, name):
         obj = Mesh.from_trimesh(obj)
     if isinstance(obj, Mesh):
         return Body(mesh=obj.require_solid(name))
+    if isinstance(obj, Surface):
+        return Body(mesh=obj.mesh, closed=False)
     if isinstance(obj, Pipe):
         return Body(chain=Chain.along(obj.path.points, obj.ring_radii, closed=obj.closed))
     if isinstance(obj, Box):

@@ -21,12 +21,10 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe._vec import dot
+
 #: cap on (points x units) or (unit pairs) elements evaluated per numpy batch
 BATCH = 1 << 18
-
-
-def _dot(a, b):
-    return np.einsum("...i,...i->...", a, b)
 
 
 # -- points against units -------------------------------------------------------
@@ -45,8 +43,8 @@ def round_cone_distance(points, a, b, ra, rb):
     safe = np.where(length > 0, length, 1.0)
     u = axis / safe[..., None]
     rel = points - a
-    y = _dot(rel, u)
-    x = np.sqrt(np.maximum(_dot(rel, rel) - y * y, 0.0))
+    y = dot(rel, u)
+    x = np.sqrt(np.maximum(dot(rel, rel) - y * y, 0.0))
     delta = (ra - rb) / safe                      # sine of the cone's half angle
     cone = (length > 0) & (np.abs(delta) < 1.0)
     delta = np.where(cone, delta, 0.0)
@@ -80,8 +78,8 @@ def _edge_minimum(c, w, k):
     """argmin over x in [0, 1] of ``|c + x w| - k x`` (convex), vectorized."""
     beta = np.linalg.norm(w, axis=-1)
     safe = np.where(beta > 0, beta, 1.0)
-    along = _dot(c, w) / safe
-    h = np.sqrt(np.maximum(_dot(c, c) - along * along, 0.0))
+    along = dot(c, w) / safe
+    h = np.sqrt(np.maximum(dot(c, c) - along * along, 0.0))
     kappa = k / safe
     inner = np.abs(kappa) < 1.0
     root = np.where(inner, kappa * h / np.sqrt(np.where(inner, 1.0 - kappa * kappa, 1.0)), 0.0)
@@ -119,8 +117,8 @@ def segment_params(uu, vv, uv, ur, vr, inv_uu, inv_vv):
 def _segment_closest(p0, u, q0, v):
     """Parameters of the closest points of segments ``p0 + s u`` and ``q0 + t v``."""
     r = p0 - q0
-    uu, vv = _dot(u, u), _dot(v, v)
-    return segment_params(uu, vv, _dot(u, v), _dot(u, r), _dot(v, r), inverse(uu), inverse(vv))
+    uu, vv = dot(u, u), dot(v, v)
+    return segment_params(uu, vv, dot(u, v), dot(u, r), dot(v, r), inverse(uu), inverse(vv))
 
 
 def _interior_stationary(p0, u, q0, v, dr, drho, sign):
@@ -131,24 +129,24 @@ def _interior_stationary(p0, u, q0, v, dr, drho, sign):
     (``sign`` picks one), each giving (s, t, lambda) by a linear solve.
     """
     n = np.cross(u, v)
-    nn = _dot(n, n)
-    uu, vv, uv = _dot(u, u), _dot(v, v), _dot(u, v)
+    nn = dot(n, n)
+    uu, vv, uv = dot(u, u), dot(v, v), dot(u, v)
     det = uu * vv - uv * uv
     ok = nn > 1e-14 * np.maximum(uu * vv, 1e-300)
     det = np.where(ok, det, 1.0)
     alpha = (dr * vv + drho * uv) / det
     beta = (-drho * uu - dr * uv) / det
     m = alpha[..., None] * u + beta[..., None] * v
-    rest = 1.0 - _dot(m, m)
+    rest = 1.0 - dot(m, m)
     ok &= rest > 0
     gamma = sign * np.sqrt(np.where(ok, rest, 0.0) / np.where(ok, nn, 1.0))
     d = m + gamma[..., None] * n
     r = p0 - q0
     den = gamma * nn
     ok &= np.abs(den) > 0
-    lam = _dot(r, n) / np.where(ok, den, 1.0)
+    lam = dot(r, n) / np.where(ok, den, 1.0)
     target = lam[..., None] * d - r               # = s u - t v
-    tu, tv = _dot(target, u), _dot(target, v)
+    tu, tv = dot(target, u), dot(target, v)
     s = (tu * vv - tv * uv) / det
     t = (tu * uv - tv * uu) / det
     ok &= (lam > 0) & (s >= 0) & (s <= 1) & (t >= 0) & (t <= 1)

@@ -29,8 +29,9 @@ are. The steps:
    no ray clears ``O_s`` or a new segment touches the chain.
 
 Whatever the search returns is checked by :func:`verify`, which shares no
-code with it: the chain must stay in ``R``, be simple, touch neither
-projected object, and leave every piece of A on A's side and of B on B's.
+code with it (its predicates are shapely's): the chain must stay in ``R``, be
+simple, touch neither projected object, and cut ``R`` into pieces none of
+which holds both objects.
 The regions are dilated by a small margin first (a hair beyond manifold3d's
 2D rounding), so a verified certificate is a proof of zero intersection.
 """
@@ -258,15 +259,6 @@ class _Boundary:
         k = int(np.searchsorted(self.corner_at, s, side="right")) - 1
         a, b = self.corners[k], self.corners[(k + 1) % 4]
         return a + (s - self.corner_at[k]) * (b - a) / np.linalg.norm(b - a)
-
-    def arc(self, start, end):
-        """Points from ``start`` counter-clockwise to ``end`` (both on the boundary)."""
-        s0, s1 = self.position(start)[0], self.position(end)[0]
-        span = np.mod(s1 - s0, self.length)
-        offset = np.mod(self.corner_at - s0, self.length)
-        inner = np.argsort(offset)
-        inner = inner[(offset[inner] > 0) & (offset[inner] < span)]
-        return np.vstack([start, self.corners[inner], end])
 
 
 def _touches(boundary, rings, tol):
@@ -517,17 +509,20 @@ def _certificate_in_plane(body_a, pose_a, body_b, pose_b, names, lo, hi, boxes, 
 
 
 # -- the verifier ---------------------------------------------------------------------
+# Shapely's predicates (GEOS), none of the search's own geometry: a bug in one cannot
+# fool the other.
 def verify(cert):
     """``(ok, reason)``: does ``cert`` prove that its two objects are apart?
 
-    Independent of the search. For "boxes": the two boxes are disjoint along the
-    plane's first axis. Otherwise: the chain runs inside R from one box crossing
-    to the other, never crosses itself, meets no edge of either region and has
-    no vertex inside one; then each region's pieces (which cannot cross the
-    chain) must lie in their own object's side polygon, the chain closed by that
-    object's boundary arc.
+    Independent of the search: every predicate here is shapely's. For "boxes":
+    the two boxes are disjoint along the plane's first axis. Otherwise: the chain
+    runs inside R from boundary to boundary, is simple, and touches neither
+    region (even-odd polygons of the rings, margin included); R cut along the
+    chain falls into pieces, and no piece holds area of both regions, so every
+    path from one object to the other crosses the chain.
     """
-    import manifold3d
+    import shapely
+    from shapely.ops import split
 
     if cert.kind == "boxes":
         (a_lo, a_hi), (b_lo, b_hi) = cert.boxes
@@ -537,37 +532,46 @@ def verify(cert):
         empty = not cert.regions[0] or not cert.regions[1]
         return empty, "an object has no part in the overlap box" if empty else \
             "both objects reach into the overlap box"
-    lo, hi = cert.rectangle
-    chain = np.asarray(cert.chain)
-    tol = 1e-9 * float(np.max(hi - lo))
+    lo, hi = (np.asarray(c, np.float64) for c in cert.rectangle)
+    chain = np.asarray(cert.chain, np.float64)
+    size = float(np.max(hi - lo))
+    tol = 1e-9 * size
     if len(chain) < 2 or np.any(chain < lo - tol) or np.any(chain > hi + tol):
         return False, "chain leaves R"
-    boundary = _Boundary(lo, hi)
-    if np.any(boundary.distance(chain[[0, -1]]) > tol):
+    rectangle = shapely.box(*lo, *hi)
+    if np.any(shapely.distance(rectangle.exterior, shapely.points(chain[[0, -1]])) > tol):
         return False, "chain does not start and end on R's boundary"
-    segs = np.stack([chain[:-1], chain[1:]], axis=1)
-    for k in range(len(segs)):
-        others = np.concatenate([segs[:max(k - 1, 0)], segs[k + 2:]])
-        if _segments_cross(segs[k, 0], segs[k, 1], others):
-            return False, "chain crosses itself"
-    for rings in cert.regions:
-        edges = _edges(rings)
-        for p, q in segs:
-            if _segments_cross(p, q, edges):
-                return False, "chain touches a projected object"
-        if any(_inside_rings(rings, v) for v in chain):
-            return False, "chain vertex inside a projected object"
-    # the chain splits R in two; each side is the chain closed by one boundary arc
-    sides = [manifold3d.CrossSection([np.vstack([chain, arc[1:-1]])], manifold3d.FillRule.NonZero)
-             for arc in (boundary.arc(chain[-1], chain[0]),
-                         boundary.arc(chain[0], chain[-1])[::-1])]
-    regions = [manifold3d.CrossSection(rings, manifold3d.FillRule.EvenOdd)
-               for rings in cert.regions]
-
-    def within(region, side):
-        return (region - side).area() <= 1e-9 * max(region.area(), tol)
-
-    if not any(within(regions[0], sides[k]) and within(regions[1], sides[1 - k])
-               for k in (0, 1)):
-        return False, "an object reaches the other object's side"
+    line = shapely.LineString(chain)
+    if not line.is_simple:
+        return False, "chain crosses itself"
+    regions = [_even_odd(rings) for rings in cert.regions]
+    if any(line.intersects(region) for region in regions):
+        return False, "chain touches a projected object"
+    # the chain's ends pushed out of R, so it cuts R's boundary cleanly
+    ends = [_outward(chain[0], lo, hi, size), _outward(chain[-1], lo, hi, size)]
+    pieces = split(rectangle, shapely.LineString(np.vstack([ends[0], chain, ends[1]]))).geoms
+    if len(pieces) < 2:
+        return False, "chain does not cut R"
+    floor = 1e-12 * size * size
+    for piece in pieces:
+        if all(piece.intersection(region).area > floor for region in regions):
+            return False, "an object reaches the other object's side"
     return True, "chain separates the objects"
+
+
+def _even_odd(rings):
+    """The region of polygon rings under the even-odd rule, as a shapely geometry."""
+    import shapely
+
+    region = shapely.Polygon()
+    for ring in rings:
+        region = region.symmetric_difference(shapely.make_valid(shapely.Polygon(ring)))
+    return region
+
+
+def _outward(point, lo, hi, size):
+    """``point`` (on R's boundary) moved out of R across its nearest side."""
+    gaps = np.array([point[0] - lo[0], hi[0] - point[0], point[1] - lo[1], hi[1] - point[1]])
+    side = int(np.argmin(gaps))
+    step = np.array([[-1.0, 0.0], [1.0, 0.0], [0.0, -1.0], [0.0, 1.0]])[side]
+    return point + 1e-3 * size * step

@@ -1,6 +1,19 @@
-"""Virtual fixtures: does a tool path stay inside a safety pipe, and where does it leave?
+"""Virtual fixtures: where points are relative to a safety pipe, and where a tool
+path leaves it.
 
-The points themselves are classified by their signed distance to the pipe's
+:func:`locate` answers, for an unordered cloud of points, everything a fixture
+controller asks per point in one vectorized call: inside or not, the signed
+distance to the pipe's wall, the nearest point of the centreline, its arc
+length and the tangent there. The pipe is the chain of round cones through
+its ring vertices (the same solid :meth:`CollisionWorld.inside` and the
+collision checks use). A KD-tree over the centreline segments' midpoints
+gives each point a few candidate segments; a point whose best candidate is
+nearer than any other segment could be (the K-th midpoint's distance less
+half the longest segment, and less the largest radius for the wall) is
+answered from them, the rare rest against every segment -- so the answer is
+exact, not a nearest-vertex approximation.
+
+:func:`containment` is the ordered tool-path question. The points themselves are classified by their signed distance to the pipe's
 ball chain. The path between them matters too (a straight move can cut a bend
 while both ends are inside), so each path segment is intersected with every
 nearby unit: the signed distance of a convex unit is convex along a line, so
@@ -13,8 +26,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cadpipe.collision.capsules import round_cone_distance
+from cadpipe._validate import as_points
+from cadpipe.collision.capsules import BATCH, round_cone_distance
+from cadpipe.errors import InputError
 
+#: candidate segments per point from the KD-tree
+CANDIDATES = 8
+#: consecutive units per bounding ball of the exactness check
+GROUP = 16
+#: points per vectorized block of :func:`locate` (bounds the temporaries' memory)
+BLOCK = 1 << 15
 #: golden-section steps and bisection steps (each shrinks the bracket below 1e-12)
 GOLDEN_STEPS = 60
 BISECTION_STEPS = 42
@@ -40,6 +61,182 @@ class PipeContainment:
     @property
     def all_inside(self):
         return self.exit_segment is None
+
+
+@dataclass(frozen=True)
+class PipeLocation:
+    """Result of :func:`locate` for ``M`` points, per point.
+
+    Attributes
+    ----------
+    inside : (M,) bool
+        Within the pipe's wall (signed distance <= 0).
+    signed_distance : (M,) float
+        To the wall, negative inside (length units).
+    nearest : (M, 3) float
+        The nearest point of the centreline.
+    arc_length : (M,) float
+        Of ``nearest``, along the centreline from its first point.
+    tangent : (M, 3) float
+        Unit direction of the centreline at ``nearest`` (zero for a pipe of one
+        point).
+    segment : (M,) int
+        The centreline segment ``nearest`` lies on (from point ``k`` to ``k + 1``).
+    """
+
+    inside: np.ndarray
+    signed_distance: np.ndarray
+    nearest: np.ndarray
+    arc_length: np.ndarray
+    tangent: np.ndarray
+    segment: np.ndarray
+
+
+class _Centreline:
+    """A pipe's units with the KD-tree over their midpoints, built once per pipe."""
+
+    def __init__(self, chain):
+        from scipy.spatial import cKDTree
+
+        self.a, self.b = chain.starts, chain.ends
+        self.ra, self.rb = chain.start_radii, chain.end_radii
+        axis = self.b - self.a
+        self.length = np.linalg.norm(axis, axis=1)
+        self.tangent = axis / np.where(self.length > 0, self.length, 1.0)[:, None]
+        self.start_arc = np.concatenate([[0.0], np.cumsum(self.length)[:-1]])
+        self.tree = cKDTree(0.5 * (self.a + self.b))
+        self.half = 0.5 * float(self.length.max())
+        self.radius = float(max(self.ra.max(), self.rb.max()))
+        self.uniform = bool(np.all(self.ra == self.radius) and np.all(self.rb == self.radius))
+        # a ball around each group of GROUP consecutive segments, and its largest radius
+        count = -(-len(self.a) // GROUP)
+        centre, ball, radius = [], [], []
+        for g in range(count):
+            span = np.concatenate([self.a[g * GROUP:(g + 1) * GROUP],
+                                   self.b[g * GROUP:(g + 1) * GROUP]])
+            c = 0.5 * (span.min(axis=0) + span.max(axis=0))
+            centre.append(c)
+            ball.append(np.linalg.norm(span - c, axis=1).max())
+            radius.append(max(self.ra[g * GROUP:(g + 1) * GROUP].max(),
+                              self.rb[g * GROUP:(g + 1) * GROUP].max()))
+        self.group_centre, self.group_ball = np.array(centre), np.array(ball)
+        self.group_radius = np.array(radius)
+
+    def project(self, points, units):
+        """Per point and candidate unit ``(M, K)``: the centreline distance, the
+        segment parameter and the wall's signed distance."""
+        a = self.a[units]
+        axis = self.b[units] - a
+        rel = points[:, None] - a
+        lengths = self.length[units]
+        t = np.clip(np.einsum("mki,mki->mk", rel, axis) / np.where(lengths > 0, lengths,
+                                                                    1.0) ** 2, 0.0, 1.0)
+        off = rel - t[..., None] * axis
+        centreline = np.sqrt(np.einsum("mki,mki->mk", off, off))
+        if self.uniform:          # capsules of one radius: the wall is r out from the line
+            return centreline, t, centreline - self.radius
+        wall = round_cone_distance(points[:, None], a, self.b[units], self.ra[units],
+                                   self.rb[units])
+        return centreline, t, wall
+
+
+def _pipe_chain(pipe, transform):
+    from cadpipe.collision.bodies import as_body
+    from cadpipe.geometry.pipe import Pipe
+
+    if not isinstance(pipe, Pipe):
+        raise InputError(f"locate(pipe, points): expected a cadpipe Pipe, got "
+                         f"{type(pipe).__name__}", key="pipe")
+    chain = as_body(pipe, "pipe").chain
+    if transform is not None:
+        from cadpipe.collision.world import as_pose
+
+        chain = chain.moved(as_pose(transform, "pipe"))
+    return chain
+
+
+def locate(pipe, points, transform=None):
+    """Where each of ``points`` is relative to ``pipe``, in one vectorized call.
+
+    Parameters
+    ----------
+    pipe : Pipe
+        The safety pipe (its ball chain through the ring vertices is the solid).
+    points : (M, 3) array
+        Query points, in any order (length units of the pipe).
+    transform : (4, 4) array, optional
+        Where the pipe stands (rigid); the identity by default.
+
+    Returns
+    -------
+    PipeLocation
+    """
+    points = as_points(points, "points")
+    line = _Centreline(_pipe_chain(pipe, transform))
+    count = len(line.a)
+    k = min(CANDIDATES, count)
+    m = len(points)
+    out = PipeLocation(np.empty(m, bool), np.empty(m), np.empty((m, 3)), np.empty(m),
+                       np.empty((m, 3)), np.empty(m, np.int64))
+    for start in range(0, m, BLOCK):
+        block = points[start:start + BLOCK]
+        reach, units = line.tree.query(block, k=k)
+        reach, units = reach.reshape(len(block), k), units.reshape(len(block), k)
+        centreline, t, wall = line.project(block, units)
+        if k < count:     # some segment not among the candidates might be nearer: check all
+            far = reach[:, -1] - line.half
+            unsure = (centreline.min(axis=1) > far) | (wall.min(axis=1) > far - line.radius)
+            if unsure.any():
+                _every_unit(line, block, unsure, centreline, t, wall, units)
+        _fill(out, slice(start, start + len(block)), line, block, units, centreline, t, wall)
+    return out
+
+
+def _every_unit(line, block, unsure, centreline, t, wall, units):
+    """Make the candidates of the ``unsure`` points exact: every unit in a group of
+    :data:`GROUP` consecutive units whose bounding ball could hold something
+    nearer than the best candidate is projected too, and the best goes to
+    column 0 (the other columns are then never the best)."""
+    rows = np.flatnonzero(unsure)
+    best_line, best_wall = centreline[rows].min(axis=1), wall[rows].min(axis=1)
+    gap = np.linalg.norm(block[rows, None] - line.group_centre, axis=2) - line.group_ball
+    near = (gap < best_line[:, None]) | (gap - line.group_radius < best_wall[:, None])
+    row, group = np.nonzero(near)
+    offsets = np.arange(GROUP)
+    row = np.repeat(row, GROUP)
+    unit = (group[:, None] * GROUP + offsets).ravel()
+    keep = unit < len(line.a)
+    row, unit = row[keep], unit[keep]
+    for at in range(0, len(row), BATCH):
+        r, u = row[at:at + BATCH], unit[at:at + BATCH]
+        c, s, w = (v[:, 0] for v in line.project(block[rows[r]], u[:, None]))
+        first = np.r_[True, r[1:] != r[:-1]]
+        starts = np.flatnonzero(first)
+        order = np.lexsort((c, r))
+        pick = order[starts]
+        into = rows[r[pick]]
+        better = c[pick] < centreline[into].min(axis=1)
+        into, pick = into[better], pick[better]
+        centreline[into] = np.inf
+        centreline[into, 0], t[into, 0], units[into, 0] = c[pick], s[pick], u[pick]
+        lowest = np.minimum.reduceat(w, starts)
+        into = rows[r[starts]]
+        wall[into, 0] = np.minimum(wall[into].min(axis=1), lowest)
+        wall[into, 1:] = np.inf
+
+
+def _fill(out, rows, line, block, units, centreline, t, wall):
+    pick = np.arange(len(block))
+    best = np.argmin(centreline, axis=1)
+    unit = units[pick, best]
+    param = t[pick, best]
+    sd = wall.min(axis=1)
+    out.signed_distance[rows] = sd
+    out.inside[rows] = sd <= 0
+    out.segment[rows] = unit
+    out.nearest[rows] = line.a[unit] + param[:, None] * (line.b[unit] - line.a[unit])
+    out.arc_length[rows] = line.start_arc[unit] + param * line.length[unit]
+    out.tangent[rows] = line.tangent[unit]
 
 
 def _unit_intervals(p0, p1, a, b, ra, rb):

@@ -33,6 +33,7 @@ from functools import cached_property
 
 import numpy as np
 
+from cadpipe._vec import dot
 from cadpipe.collision.capsules import inverse, segment_params, unit_pair_gap
 
 #: poses per pass of :func:`chain_gaps`: the frontier's arrays stay in cache
@@ -198,10 +199,10 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
         v = np.take(moved, i0 + tb.span[nb]) - q0
         u = np.take(ta.chord_t, na, axis=1)
         r = np.take(ta.start_t, na, axis=1) - q0
-        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], _dots(u, v), _dots(u, r),
-                              _dots(v, r), ta.inv_chord_sq[na], tb.inv_chord_sq[nb])
+        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], dot(u, v, 0), dot(u, r, 0),
+                              dot(v, r, 0), ta.inv_chord_sq[na], tb.inv_chord_sq[nb])
         r += s * u - t * v
-        dist = np.sqrt(_dots(r, r))
+        dist = np.sqrt(dot(r, r, 0))
         upper = dist - ta.inner[na] - tb.inner[nb]
         lower = dist - ta.outer[na] - tb.outer[nb]
         if stop_below is None:
@@ -222,11 +223,6 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     if exact and pose.size:
         ua, ub = ta.unit[na - 2 ** ta.depth + 1], tb.unit[nb - 2 ** tb.depth + 1]
         _exact(chain_a, chain_b, moved, n_b, pose, ua, ub, gap, units, params)
-
-
-def _dots(a, b):
-    """Column-wise dot products of (3, E) arrays."""
-    return np.einsum("ij,ij->j", a, b)
 
 
 def _level(tree, depth):

@@ -15,6 +15,7 @@ body and never refitted. Touching counts as contact.
 
 from functools import cache
 
+import numba
 import numpy as np
 
 from cadpipe.geometry.mesh import winding_numbers
@@ -24,15 +25,35 @@ from cadpipe.collision.hierarchy import chain_gaps
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
 INSIDE = 0.5
 
+# One pose of one pair costs a few of these compiled loops instead of ~40 numpy
+# calls on (1, 4, 4) arrays: collide() on a Panda link pair 229 -> see
+# docs/performance.md for the per-state figures this buys.
+_jit = numba.njit(cache=True, nogil=True)
+
 
 def relative(pose_a, pose_b):
-    """Poses of b in a's frame, vectorized over leading axes."""
-    rot = pose_a[..., :3, :3].swapaxes(-1, -2)
-    inv = np.zeros(pose_a.shape)
-    inv[..., :3, :3] = rot
-    inv[..., :3, 3] = -(rot @ pose_a[..., :3, 3, None])[..., 0]
-    inv[..., 3, 3] = 1.0
-    return inv @ pose_b
+    """Poses of b in a's frame, ``inv(pose_a) @ pose_b``, vectorized over leading axes
+    (rigid poses: the inverse is the transposed rotation)."""
+    pose_a, pose_b = np.asarray(pose_a, np.float64), np.asarray(pose_b, np.float64)
+    if pose_a.shape != pose_b.shape:
+        pose_a, pose_b = (np.ascontiguousarray(p) for p in np.broadcast_arrays(pose_a, pose_b))
+    out = np.empty(pose_a.shape)
+    _relative(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
+    return out
+
+
+@_jit
+def _relative(pose_a, pose_b, out):
+    for e in range(len(pose_a)):
+        a, b, o = pose_a[e], pose_b[e], out[e]
+        for r in range(3):
+            for c in range(4):
+                # row r of inv(a) is column r of a's rotation; its shift is -R^T t
+                v = a[0, r] * b[0, c] + a[1, r] * b[1, c] + a[2, r] * b[2, c]
+                if c == 3:
+                    v -= a[0, r] * a[0, 3] + a[1, r] * a[1, 3] + a[2, r] * a[2, 3]
+                o[r, c] = v
+        o[3, 0], o[3, 1], o[3, 2], o[3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
 def _apply(matrix, points):
@@ -178,19 +199,49 @@ def _inside(mesh_body, other, rel):
     the other body's extreme points all fit the mesh's own 18-DOP (a solid inside
     another lies inside the other's hull).
     """
-    points = _apply(rel, other.probes)                                       # (E, K, 3)
+    if not mesh_body.closed:                                                  # a Surface
+        return np.zeros(len(rel), bool)
+    low, high = mesh_body.local_kdop
     lo, hi = mesh_body.mesh.bounds
-    in_box = np.logical_and.reduce((points >= lo) & (points <= hi), axis=2)
-    near = np.logical_or.reduce(in_box, axis=1).nonzero()[0]
+    near = np.empty(len(rel), np.bool_)
+    _could_be_inside(rel, other.probes, other.extremes, lo, hi, low, high,
+                     1e-9 * float(np.max(high - low)), near)
+    near = near.nonzero()[0]
     inside = np.zeros(len(rel), bool)
     if near.size:
-        low, high = mesh_body.local_kdop
-        reach = _apply(rel[near], other.extremes) @ KDOP_DIRECTIONS.T         # (e, 18, 9)
-        slack = 1e-9 * float(np.max(high - low))
-        near = near[np.all((reach >= low - slack) & (reach <= high + slack), axis=(1, 2))]
-        found = mesh_contains(mesh_body, points[near].reshape(-1, 3))
+        points = _apply(rel[near], other.probes)                              # (e, K, 3)
+        found = mesh_contains(mesh_body, points.reshape(-1, 3))
         inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
     return inside
+
+
+@_jit
+def _could_be_inside(rel, probes, extremes, lo, hi, low, high, slack, out):
+    """``out[e]``: some probe lies in the box ``lo``, ``hi`` and every extreme point
+    within the 18-DOP ``low``, ``high`` (+- ``slack``), all moved by ``rel[e]``."""
+    for e in range(len(rel)):
+        m = rel[e]
+        in_box = False
+        for k in range(len(probes)):
+            inside = True
+            for r in range(3):
+                v = m[r, 0] * probes[k, 0] + m[r, 1] * probes[k, 1] + m[r, 2] * probes[k, 2] \
+                    + m[r, 3]
+                inside = inside and lo[r] <= v <= hi[r]
+            in_box = in_box or inside
+        fits = in_box
+        for k in range(len(extremes)):
+            if not fits:
+                break
+            x = np.empty(3)
+            for r in range(3):
+                x[r] = m[r, 0] * extremes[k, 0] + m[r, 1] * extremes[k, 1] \
+                    + m[r, 2] * extremes[k, 2] + m[r, 3]
+            for d in range(9):
+                v = KDOP_DIRECTIONS[d, 0] * x[0] + KDOP_DIRECTIONS[d, 1] * x[1] \
+                    + KDOP_DIRECTIONS[d, 2] * x[2]
+                fits = fits and low[d] - slack <= v <= high[d] + slack
+        out[e] = fits
 
 
 @cache
@@ -218,10 +269,31 @@ def _near_units(mesh_body, chain_body, rel):
     box, entry by entry, with each unit's FCL pose in the mesh's frame."""
     centre, radius = chain_body.chain.unit_spheres
     lo, hi = mesh_body.mesh.bounds
-    moved = _apply(rel, centre)                                            # (E, U, 3)
-    out = moved - np.minimum(np.maximum(moved, lo), hi)
-    entry, unit = np.nonzero(np.einsum("eui,eui->eu", out, out) <= radius * radius)
+    entry = np.empty(len(rel) * len(centre), np.int64)
+    unit = np.empty(len(entry), np.int64)
+    found = _balls_reaching_box(rel, centre, radius, lo, hi, entry, unit)
+    entry, unit = entry[:found], unit[:found]
     return entry, unit, rel[entry] @ chain_body.fcl_units[1][unit]
+
+
+@_jit
+def _balls_reaching_box(rel, centre, radius, lo, hi, entry, unit):
+    """Write the (entry, ball) pairs whose ball, moved by ``rel[entry]``, reaches the
+    box ``lo``, ``hi``; returns how many."""
+    count = 0
+    for e in range(len(rel)):
+        m = rel[e]
+        for u in range(len(centre)):
+            gap = 0.0
+            for r in range(3):
+                v = m[r, 0] * centre[u, 0] + m[r, 1] * centre[u, 1] + m[r, 2] * centre[u, 2] \
+                    + m[r, 3]
+                out = v - min(max(v, lo[r]), hi[r])
+                gap += out * out
+            if gap <= radius[u] * radius[u]:
+                entry[count], unit[count] = e, u
+                count += 1
+    return count
 
 
 def _mesh_chain(mesh_body, chain_body, rel):
@@ -240,10 +312,11 @@ def _mesh_chain(mesh_body, chain_body, rel):
 
 
 # -- clearance ----------------------------------------------------------------------
-def distance(body_a, pose_a, body_b, pose_b):
+def distance(body_a, pose_a, body_b, pose_b, containment=True):
     """``(distance, point_a, point_b, decided_by)`` in world coordinates.
 
-    Distance 0 (and no points) when the bodies touch or one contains the other.
+    Distance 0 (and no points) when the bodies touch or (``containment``) one
+    contains the other.
     """
     if body_a.kind == "chain" and body_b.kind == "chain":
         gap, pa, pb = body_a.chain.gap(body_b.chain, relative(pose_a, pose_b))
@@ -260,7 +333,7 @@ def distance(body_a, pose_a, body_b, pose_b):
     else:
         dist, pa, pb = _mesh_chain_distance(body_a, body_b, rel)
     decided = "fcl"
-    if dist > 0 and collide(body_a, _EYE[None], body_b, rel[None])[0][0]:
+    if containment and dist > 0 and collide(body_a, _EYE[None], body_b, rel[None])[0][0]:
         dist, pa, pb, decided = 0.0, None, None, "containment"
     if dist <= 0:
         return 0.0, None, None, decided

@@ -1,9 +1,14 @@
-"""A robot arm for collision checks: links with collision meshes on a joint tree.
+"""A robot for collision checks: links with collision meshes on a joint tree.
 
-URDF files are parsed by yourdfpy (a well-kept loader); link collision
+URDF files are parsed by yourdfpy (a well-kept loader); ``package://`` mesh
+references are resolved by :mod:`cadpipe.collision.packages`. Link collision
 geometry (meshes, boxes, cylinders, spheres, each with its origin) is merged
-into one closed mesh per link with manifold3d. Forward kinematics is a product
-of 4x4 matrices down the tree, so posing the arm costs a few matrix products.
+into one closed mesh per link with manifold3d. A collision mesh that is not a
+closed solid (stock robot models ship many) is replaced by its convex hull, a
+conservative stand-in, or kept as given (then nothing can be found inside that
+link); :attr:`Robot.notes` says which, per link. Forward kinematics is a
+product of 4x4 matrices down the tree, for every frame of the URDF, so posing
+the arm costs a few matrix products.
 
 Allowed pairs follow MoveIt: links joined by a joint are allowed by default
 (skipping links without geometry, e.g. a flange frame), and an SRDF file's
@@ -50,11 +55,21 @@ class Robot:
         Collision geometry in each link's frame (links without geometry omitted).
     allowed : sequence of (link, link, reason), optional
         Extra allowed pairs (e.g. from an SRDF); adjacent links are added here.
+    open_links : collection of str, optional
+        Links whose mesh is an open surface kept as given: they collide by
+        their triangles, and nothing is found inside them.
+    notes : mapping of link name -> str, optional
+        How each link's geometry was made from its file (see :attr:`notes`).
     """
 
-    def __init__(self, name, joints, link_meshes, allowed=()):
+    def __init__(self, name, joints, link_meshes, allowed=(), open_links=(), notes=None):
         self.name = str(name)
-        self.link_meshes = {k: v.require_solid(f"link {k}") for k, v in link_meshes.items()}
+        self.open_links = frozenset(open_links)
+        self.link_meshes = {k: v if k in self.open_links else v.require_solid(f"link {k}")
+                            for k, v in link_meshes.items()}
+        #: per link with geometry: how its collision mesh was made (convex hull of an
+        #: open mesh, kept open, faces flipped), empty where it was used as given
+        self.notes = dict(notes or {})
         children = {j.child for j in joints}
         parents = {j.parent for j in joints}
         roots = (parents | set(self.link_meshes)) - children
@@ -78,10 +93,37 @@ class Robot:
                 raise InputError(f"joint {j.name} mimics unknown joint {j.mimic[0]!r}")
         self.actuated = tuple(j.name for j in order if j.kind in MOVING and j.mimic is None)
         self._kinematics = _kinematics(order, self.base, self.link_meshes)
+        self.frames = tuple(self._kinematics["links"])
         self.allowed_pairs = tuple(dict.fromkeys(
             [(a, b, "adjacent links") for a, b in self._adjacent()]
             + [(a, b, str(r)) for a, b, r in allowed if a in self.link_meshes
                and b in self.link_meshes]))
+
+    @property
+    def link_shapes(self):
+        """What :meth:`CollisionWorld.add_robot` adds per link: the closed Mesh, or a
+        :class:`~cadpipe.collision.bodies.Surface` for a link kept open."""
+        from cadpipe.collision.bodies import Surface
+
+        return {k: Surface(m) if k in self.open_links else m for k, m in self.link_meshes.items()}
+
+    @property
+    def limits(self):
+        """``(2, A)`` lower and upper limits of the :attr:`actuated` joints (+-inf
+        for continuous ones)."""
+        k = self._kinematics
+        return np.stack([k["lower"], k["upper"]])
+
+    @property
+    def default(self):
+        """``(A,)`` the default configuration, as MoveIt sets it: 0 where 0 is
+        within a joint's limits, else the middle of the limits (or the nearer
+        limit of a half-open range)."""
+        lower, upper = self.limits
+        bounded = np.isfinite(lower) & np.isfinite(upper)
+        middle = np.where(bounded, 0.5 * (np.where(bounded, lower, 0.0) + np.where(
+            bounded, upper, 0.0)), np.clip(0.0, lower, upper))
+        return np.where((lower <= 0.0) & (upper >= 0.0), 0.0, middle)
 
     def __repr__(self):
         return (f"<cadpipe Robot {self.name}: {len(self.link_meshes)} links with geometry, "
@@ -105,7 +147,7 @@ class Robot:
         of every joint in :attr:`joints` order (fixed joints 0, mimics derived).
 
         One configuration may also be an ``(A,)`` sequence, a mapping by name
-        (missing names stay 0), or None for all zeros.
+        (missing names take :attr:`default`), or None for :attr:`default`.
         """
         if configurations is None or hasattr(configurations, "items"):
             configurations = [self._from_mapping(configurations or {})]
@@ -136,7 +178,7 @@ class Robot:
         if unknown:
             raise InputError(f"joints: unknown joint {sorted(unknown)[0]!r}; robot "
                              f"{self.name} has {', '.join(self.actuated)}")
-        return [joints.get(name, 0.0) for name in self.actuated]
+        return [joints.get(name, value) for name, value in zip(self.actuated, self.default)]
 
     def link_pose_array(self, configurations, base=None):
         """World poses ``(C, L, 4, 4)`` of the links with geometry (in
@@ -147,7 +189,17 @@ class Robot:
         precomputed); then one stacked matrix product per joint walks down the
         tree, for all configurations together.
         """
-        q = self.joint_array(configurations)
+        return self.all_frame_poses(configurations, base)[:, self._kinematics["geometry"]]
+
+    def all_frame_poses(self, configurations, base=None):
+        """``(C, F, 4, 4)`` world poses of every frame of the URDF, in :attr:`frames`
+        order (the base first, then each joint's child), at ``(C, A)`` joint
+        configurations."""
+        return self._frame_pose_array(self.joint_array(configurations), base)
+
+    def _frame_pose_array(self, q, base):
+        """``(C, F, 4, 4)`` poses of every frame (:attr:`frames` order) at ``(C, J)``
+        values of every joint."""
         k = self._kinematics
         angle, shift = (q * k["revolute"])[..., None, None], (q * k["prismatic"])[..., None, None]
         local = (k["origin"] + np.sin(angle) * k["turn"] + (1.0 - np.cos(angle)) * k["turn2"]
@@ -156,7 +208,35 @@ class Robot:
         poses[:, 0] = np.eye(4) if base is None else base
         for step, (parent, child) in enumerate(k["edges"]):
             np.matmul(poses[:, parent], local[:, step], out=poses[:, child])
-        return poses[:, k["geometry"]]
+        return poses
+
+    def frame_poses(self, configurations, frame, base=None):
+        """World pose of ``frame`` (any link of the URDF, with or without geometry,
+        e.g. ``"panda_hand_tcp"``) at joint configurations.
+
+        Parameters
+        ----------
+        configurations : (C, A) or (A,) array, mapping or None
+            Joint values over :attr:`actuated` (radians, metres).
+        frame : str
+            A name in :attr:`frames`.
+        base : (4, 4) array, optional
+            Where the robot's base stands (identity by default).
+
+        Returns
+        -------
+        (C, 4, 4) array, or (4, 4) for one configuration given as ``(A,)``,
+        a mapping or None.
+        """
+        try:
+            at = self.frames.index(frame)
+        except ValueError:
+            raise InputError(f"frame {frame!r}: robot {self.name} has no such link; frames: "
+                             + ", ".join(self.frames), key="frame") from None
+        single = configurations is None or hasattr(configurations, "items") or \
+            np.ndim(configurations) == 1
+        poses = self._frame_pose_array(self.joint_array(configurations), base)[:, at]
+        return poses[0] if single else poses
 
     def link_poses_at(self, joints=None, base=None):
         """``(L, 4, 4)`` world poses of the links with geometry at one configuration
@@ -174,28 +254,54 @@ class Robot:
 
     # -- loading -----------------------------------------------------------------
     @classmethod
-    def from_urdf(cls, path, srdf=None):
-        """Load a URDF (and optionally MoveIt's SRDF for its disabled pairs)."""
+    def from_urdf(cls, urdf, srdf=None, package_dirs=None, open_meshes="hull"):
+        """Load a URDF (and optionally MoveIt's SRDF for its disabled pairs).
+
+        Parameters
+        ----------
+        urdf : path
+            The URDF file.
+        srdf : path, optional
+            MoveIt's SRDF; its ``disable_collisions`` pairs are allowed.
+        package_dirs : mapping of name -> folder, or sequence of folders, optional
+            Where ``package://NAME/...`` meshes are looked for first; see
+            :mod:`cadpipe.collision.packages` for the rest of the search.
+        open_meshes : {"hull", "as given"}
+            What a collision mesh that is not a closed solid becomes: its convex
+            hull (the default: a closed solid that contains it, so checks stay
+            conservative) or the open surface as given (it collides by its
+            triangles; nothing is found inside it). Either way
+            :attr:`notes` says so for the link.
+        """
         import yourdfpy
 
-        path = FilePath(path)
+        if open_meshes not in ("hull", "as given"):
+            raise InputError(f"open_meshes must be 'hull' or 'as given', got {open_meshes!r}",
+                             key="open_meshes")
+        path = FilePath(urdf)
         _xml_root(path, "URDF")       # a clear error for bad XML (yourdfpy would log it)
         try:
-            urdf = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
-                                      build_collision_scene_graph=False)
+            model = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
+                                       build_collision_scene_graph=False)
         except Exception as exc:      # lxml and yourdfpy raise many types for bad files
             raise SpecError(f"{path}: not a readable URDF ({type(exc).__name__}: {exc})") \
                 from None
-        joints = [_joint(j) for j in urdf.robot.joints]
-        meshes = {}
-        for link in urdf.robot.links:
-            parts = [_geometry(c, path.parent, link.name) for c in link.collisions]
+        joints = [_joint(j) for j in model.robot.joints]
+        meshes, notes, open_links, files = {}, {}, set(), {}
+        for link in model.robot.links:
+            parts = [_geometry(c, path, package_dirs, link.name, files)
+                     for c in link.collisions]
+            parts = [p for p in parts if p is not None]
             if parts:
-                meshes[link.name] = _union(parts, link.name)
+                meshes[link.name], said, is_open = _link_mesh(parts, link.name, open_meshes)
+                if said:
+                    notes[link.name] = said
+                if is_open:
+                    open_links.add(link.name)
         if not meshes:
             raise SpecError(f"{path}: no link has collision geometry; nothing to check")
         allowed = srdf_disabled_pairs(srdf) if srdf is not None else ()
-        return cls(urdf.robot.name, joints, meshes, allowed)
+        return cls(model.robot.name, joints, meshes, allowed, open_links, notes)
 
 
 def _kinematics(joints, base, geometry):
@@ -232,7 +338,13 @@ def _joint(j):
         raise SpecError(f"joint {j.name}: type {j.type!r} is not supported; use revolute, "
                         "continuous, prismatic or fixed")
     axis = np.array([1.0, 0.0, 0.0] if j.axis is None else j.axis, np.float64)
-    axis /= np.linalg.norm(axis)
+    length = np.linalg.norm(axis)
+    if not length > 0:
+        if j.type in MOVING:
+            raise SpecError(f"joint {j.name}: a {j.type} joint needs a non-zero axis, got "
+                            f"{j.axis!r}")
+        axis, length = np.array([1.0, 0.0, 0.0]), 1.0      # a fixed joint's axis is unused
+    axis /= length
     lower, upper = -np.inf, np.inf
     if j.limit is not None and j.type in ("revolute", "prismatic"):
         lower = -np.inf if j.limit.lower is None else float(j.limit.lower)
@@ -243,46 +355,86 @@ def _joint(j):
     return Joint(j.name, j.type, j.parent, j.child, origin, axis, lower, upper, mimic)
 
 
-def _geometry(collision, folder, link):
-    """One collision element as a Mesh in its link's frame."""
+def _geometry(collision, urdf, package_dirs, link, files):
+    """One collision element as ``(mesh, source)`` in its link's frame (None for a
+    mesh of zero scale); ``files`` caches meshes read by path."""
     import trimesh
 
     g = collision.geometry
     if g.mesh is not None:
-        filename = g.mesh.filename
-        if "://" in filename:              # package://name/rest -> rest, beside the URDF
-            filename = filename.split("://", 1)[1].split("/", 1)[-1]
-        mesh = Mesh.load(folder / filename)
+        from cadpipe.collision.packages import resolve
+
+        filename = resolve(g.mesh.filename, urdf, package_dirs)
+        if not filename.is_file():
+            raise InputError(f"link {link}: collision mesh {g.mesh.filename} not found (looked "
+                             f"at {filename})", key=f"links.{link}", file=urdf)
+        if filename not in files:
+            files[filename] = Mesh.load(filename)
+        mesh, source = files[filename], filename.name
         if g.mesh.scale is not None:
             scale = np.broadcast_to(np.asarray(g.mesh.scale, np.float64), (3,))
+            if not np.prod(scale) != 0:
+                return None
             faces = mesh.faces if np.prod(scale) > 0 else mesh.faces[:, ::-1]
             mesh = Mesh(mesh.vertices * scale, faces)
     elif g.box is not None:
-        mesh = Mesh.from_trimesh(trimesh.creation.box(extents=g.box.size))
+        mesh, source = Mesh.from_trimesh(trimesh.creation.box(extents=g.box.size)), "box"
     elif g.cylinder is not None:
-        mesh = Mesh.from_trimesh(trimesh.creation.cylinder(radius=g.cylinder.radius,
-                                                           height=g.cylinder.length,
-                                                           sections=32))
+        mesh, source = Mesh.from_trimesh(trimesh.creation.cylinder(
+            radius=g.cylinder.radius, height=g.cylinder.length, sections=32)), "cylinder"
     elif g.sphere is not None:
-        mesh = Mesh.from_trimesh(trimesh.creation.icosphere(subdivisions=2,
-                                                            radius=g.sphere.radius))
+        mesh, source = Mesh.from_trimesh(trimesh.creation.icosphere(
+            subdivisions=2, radius=g.sphere.radius)), "sphere"
     else:
         raise SpecError(f"link {link}: unsupported collision geometry")
     origin = collision.origin
-    return mesh if origin is None else mesh.transformed(origin)
+    return (mesh if origin is None else mesh.transformed(origin)), source
 
 
-def _union(parts, link):
-    """One closed mesh for a link's collision elements (a manifold3d union)."""
-    if len(parts) == 1:
-        return parts[0].require_solid(f"link {link}")
+def _link_mesh(parts, link, open_meshes):
+    """``(mesh, note, is_open)``: one mesh for a link's collision elements.
+
+    Closed parts are unioned with manifold3d; an open or non-manifold part
+    becomes its convex hull (``open_meshes="hull"``) or is kept as given, and
+    the link then is one open mesh of all its parts, as FCL would take it.
+    """
     import manifold3d
 
-    try:
-        solids = [p.to_manifold(f"link {link}") for p in parts]
-    except MeshError as exc:
-        raise MeshError(f"{exc} (link {link} collision geometry must be closed)") from None
-    return Mesh.from_manifold(manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add))
+    solids, said, is_open = [], [], False
+    for mesh, source in parts:
+        if mesh.is_oriented and mesh.volume < 0:
+            mesh = Mesh(mesh.vertices, mesh.faces[:, ::-1])
+            said.append(f"{source}: faces pointed inward, flipped")
+        if not mesh.is_oriented or mesh.volume <= 0:
+            if open_meshes == "hull":
+                mesh = _hull(mesh, link, source)
+                said.append(f"{source}: not a closed solid, replaced by its convex hull "
+                            "(contains it: conservative)")
+            else:
+                is_open = True
+                said.append(f"{source}: not a closed solid, kept as given (collides by its "
+                            "triangles; nothing is found inside it)")
+        solids.append(mesh)
+    if is_open:
+        mesh = solids[0] if len(solids) == 1 else Mesh.concatenate(solids)
+    elif len(solids) == 1:
+        mesh = solids[0]
+    else:
+        mesh = Mesh.from_manifold(manifold3d.Manifold.batch_boolean(
+            [p.to_manifold(f"link {link}") for p in solids], manifold3d.OpType.Add))
+    return mesh, "; ".join(said), is_open
+
+
+def _hull(mesh, link, source):
+    """The convex hull of a mesh's vertices as a closed Mesh (manifold3d's hull,
+    manifold by construction where qhull's triangulation may not be)."""
+    import manifold3d
+
+    hull = manifold3d.Manifold.hull_points(np.asarray(mesh.vertices, np.float64))
+    if hull.is_empty() or hull.volume() <= 0:
+        raise MeshError(f"link {link}: collision mesh {source} is flat (no volume) and open; "
+                        "it has no solid hull. Use open_meshes='as given'")
+    return Mesh.from_manifold(hull)
 
 
 def _xml_root(path, what):

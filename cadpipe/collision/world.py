@@ -1,32 +1,51 @@
-"""The collision world: named objects, allowed pairs, and the checks over them.
+"""The collision world: a scene of named objects, and a checker that decides its pairs.
+
+Two parts with one job each:
+
+* :class:`Scene` is what is where: named bodies, their groups, rigid poses,
+  allowed pairs and the robots that pose links. It changes only by explicit
+  calls (``add``, ``allow``, ``set_pose``, ``set_joints``), and each change
+  bumps a counter: ``layout_version`` when objects or allowed pairs are added,
+  ``pose_versions[i]`` when object ``i`` moves.
+* :class:`Checker` decides pairs of a scene. Everything it keeps -- the packed
+  bounding volumes, the pair table, each object's placed bounds, each pair's
+  last answer -- is stored with the versions it was computed at and reused
+  only while they still match, so nothing is invalidated by hand and nothing
+  can go stale. A pair whose two objects have not moved since it was decided is
+  not decided again: after ``set_joints``, ``check()`` decides the robot's
+  pairs and reuses every obstacle-obstacle answer.
+
+:class:`CollisionWorld` is a scene with its checker's queries as methods.
 
 :meth:`CollisionWorld.check` follows the source's order. Pairs within one group
 (a robot's links) are self-collision pairs and are decided first; with
-``stop_after_self=True`` a self-collision ends the check, as the source does.
-Every pair not allowed then goes down the same funnel, each stage able to prove
-"apart", cheapest first: sweep-and-prune on AABBs, 18-DOPs, OBBs, optionally
-the source's separation certificate, and finally the exact narrow phase. The report records
-which stage decided each pair.
+``stop_after_self=True`` a self-collision ends the check, as the source does,
+and with ``first_hit=True`` the first collision found does. Every pair not
+allowed goes down the same funnel, each stage able to prove "apart",
+cheapest first: AABBs, 18-DOPs and OBBs (:mod:`cadpipe.collision.funnel`,
+compiled), optionally the source's separation certificate, and finally the
+exact narrow phase (:mod:`cadpipe.collision.narrow`). The report records which
+stage decided each pair.
 
 A robot checked along a path goes through the same funnel for all its
 configurations at once: :meth:`CollisionWorld.check_path` (and
-:meth:`~CollisionWorld.check_many` for any objects) poses every configuration
-in one vectorized pass, runs each bounding-volume stage over all
-(configuration, pair) entries together and hands the narrow phase whole
-batches per pair. :meth:`~CollisionWorld.check` is the batch of one.
+:meth:`~CollisionWorld.check_many` for any objects) places every moving object
+of every configuration in one kernel call, tests all (configuration, pair)
+entries in another and hands the narrow phase whole batches per pair.
 """
 
 import operator
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
-from cadpipe.solids.transform import is_rigid
+from cadpipe.solids.transform import as_matrix
 from cadpipe.collision import bounds
+from cadpipe.collision import funnel
 from cadpipe.collision import narrow
 from cadpipe.collision.bodies import as_body
 
@@ -34,26 +53,9 @@ from cadpipe.collision.bodies import as_body
 STAGES = ("allowed", "aabb", "kdop", "obb", "certificate", "fcl", "containment", "analytic",
           "not checked")
 _CODE = {name: i for i, name in enumerate(STAGES)}
+assert (_CODE["aabb"], _CODE["kdop"], _CODE["obb"]) == (funnel.AABB, funnel.KDOP, funnel.OBB)
 #: configurations per pass of the broad phase (bounds the entry arrays' memory)
 CONFIGURATION_CHUNK = 2048
-
-
-def _expand(values, where, fill):
-    """``values`` placed at the True positions of ``where``, ``fill`` elsewhere."""
-    out = np.full(len(where), fill, values.dtype)
-    out[where] = values
-    return out
-
-
-def _record(target, config, k, value):
-    """Write ``value`` for entries ``(config, k)`` of a (C, P) array; configuration -1
-    (a pair of standing objects) stands for every row."""
-    if len(target) == 1:                # one configuration: every entry is in row 0
-        target[0, k] = value
-        return
-    every = config < 0
-    target[:, k[every]] = value
-    target[config[~every], k[~every]] = value
 
 
 def as_pose(transform, name):
@@ -67,20 +69,13 @@ def as_pose(transform, name):
 def as_poses(transforms, name, shape=None):
     """Rigid 4x4 float matrices ``(..., 4, 4)`` (exactly ``shape`` when given), or
     :class:`InputError` naming the object."""
-    try:
-        m = np.array(transforms, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{name}: transform must be a 4x4 matrix of numbers") from None
-    if m.shape[-2:] != (4, 4) or (shape is not None and m.shape != shape):
-        raise InputError(f"{name}: transform must be a 4x4 matrix, got shape {m.shape}")
-    if not np.isfinite(m).all():
-        raise InputError(f"{name}: transform has NaN or infinite entries; pass a finite matrix")
-    if not is_rigid(m):
-        raise InputError(f"{name}: transform must be rigid (a rotation and a translation); "
-                         "scale or mirror the mesh itself instead")
+    m = as_matrix(transforms, part=name, stack=True, rigid=True)
+    if shape is not None and m.shape != shape:
+        raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
     return m
 
 
+# -- results ------------------------------------------------------------------------
 @dataclass(frozen=True)
 class PairResult:
     """How one pair was decided: the ``detail`` of a collision entry."""
@@ -108,54 +103,100 @@ class Clearance:
     decided_by: str
 
 
+@dataclass(frozen=True, eq=False)
+class PairTable:
+    """Every pair ``i < j`` of a scene's objects, in ``np.triu_indices`` order.
+
+    ``first``, ``second`` (P,) object indices; ``same`` (P,) whether both are in
+    one group (a self pair); ``allowed`` (P,) whether the pair is skipped, with
+    its reason in ``reasons`` (pair index -> str).
+    """
+
+    names: tuple
+    first: np.ndarray
+    second: np.ndarray
+    same: np.ndarray
+    allowed: np.ndarray
+    reasons: dict = field(default_factory=dict)
+
+    def __len__(self):
+        return len(self.first)
+
+    def order(self, ks):
+        """Pair indices ``ks`` in report order: self pairs first, then by the
+        objects' insertion order."""
+        return ks[np.lexsort((self.second[ks], self.first[ks], ~self.same[ks]))]
+
+    def result(self, k, code, colliding, certificate=None):
+        return PairResult(self.names[self.first[k]], self.names[self.second[k]],
+                          bool(colliding), STAGES[code],
+                          "self" if self.same[k] else "world", certificate)
+
+    def allowed_pairs(self):
+        return tuple((self.names[self.first[k]], self.names[self.second[k]], self.reasons[k])
+                     for k in np.flatnonzero(self.allowed))
+
+
+def _counts(codes):
+    found = np.bincount(np.ravel(codes), minlength=len(STAGES))
+    return {name: int(n) for name, n in zip(STAGES, found) if n}
+
+
 class CollisionReport:
-    """The outcome of :meth:`CollisionWorld.check`.
+    """The outcome of :meth:`CollisionWorld.check` for one configuration.
+
+    Parameters
+    ----------
+    table : PairTable
+    decided_by : (P,) int8
+        Each pair's stage code, an index into :data:`STAGES`.
+    colliding : (P,) bool
+    certificates : dict
+        Pair index -> Certificate, for pairs decided by ``"certificate"``.
+    stopped_after_self : bool
+        Whether a self-collision ended the check (``stop_after_self=True``).
 
     ``collisions`` lists ``(name_a, name_b, detail)`` for touching pairs:
     self-collisions first, then the rest, each in the order objects were added.
     ``pairs`` holds a :class:`PairResult` for every pair, allowed ones included.
     """
 
-    def __init__(self, names, first, second, same, codes, colliding, allowed_reasons,
-                 certificates, stopped_after_self):
-        self._names = names
-        self._first, self._second, self._same = first, second, same
-        self._codes, self._colliding = codes, colliding
-        self._allowed_reasons = allowed_reasons
-        self._certificates = certificates
-        self.stopped_after_self = stopped_after_self
+    def __init__(self, table, decided_by, colliding, certificates, stopped_after_self):
+        self.table = table
+        self.decided_by, self.pair_colliding = decided_by, colliding
+        self.certificates = certificates
+        self.stopped_after_self = bool(stopped_after_self)
 
     def _result(self, k):
-        return PairResult(self._names[self._first[k]], self._names[self._second[k]],
-                          bool(self._colliding[k]), STAGES[self._codes[k]],
-                          "self" if self._same[k] else "world", self._certificates.get(k))
+        return self.table.result(k, self.decided_by[k], self.pair_colliding[k],
+                                 self.certificates.get(k))
 
     @cached_property
     def pairs(self):
-        return [self._result(k) for k in self._order(np.arange(len(self._codes)))]
+        return [self._result(k) for k in self.table.order(np.arange(len(self.table)))]
 
     @cached_property
     def collisions(self):
-        hits = self._order(self._colliding.nonzero()[0])
+        hits = self.table.order(self.pair_colliding.nonzero()[0])
         return [(r.a, r.b, r) for r in map(self._result, hits)]
 
-    def _order(self, ks):
-        """Self pairs first, then by the objects' insertion order."""
-        return ks[np.lexsort((self._second[ks], self._first[ks], ~self._same[ks]))]
+    @property
+    def colliding(self):
+        """Whether any pair touches."""
+        return bool(self.pair_colliding.any())
 
     @property
     def allowed(self):
-        """``(name_a, name_b, reason)`` of the pairs skipped as allowed."""
-        return [(self._names[self._first[k]], self._names[self._second[k]],
-                 self._allowed_reasons[k]) for k in np.flatnonzero(self._codes == _CODE["allowed"])]
+        """``(name_a, name_b, reason)`` of the pairs skipped as allowed (the same
+        meaning as :attr:`CollisionWorld.allowed`)."""
+        return list(self.table.allowed_pairs())
 
     def counts(self):
         """How many pairs each stage decided."""
-        found = np.bincount(self._codes, minlength=len(STAGES))
-        return {name: int(n) for name, n in zip(STAGES, found) if n}
+        return _counts(self.decided_by)
 
     def __bool__(self):
-        return bool(self.collisions)
+        return self.colliding
 
     def to_dict(self):
         return {"collisions": [{"a": a, "b": b, "decided_by": d.decided_by, "phase": d.phase}
@@ -171,19 +212,23 @@ class CollisionReports(Sequence):
     :meth:`CollisionWorld.check_many`: one :class:`CollisionReport` per
     configuration (built when asked for), and the answers as arrays.
 
-    ``colliding[c]`` says whether configuration ``c`` has any collision;
-    ``pair_colliding`` and ``decided_by`` hold every pair's answer and stage
-    code (an index into :data:`STAGES`) per configuration, pairs in
-    ``np.triu_indices`` order of the objects; ``stopped_after_self[c]`` is
-    :attr:`CollisionReport.stopped_after_self` of configuration ``c``.
+    Parameters
+    ----------
+    table : PairTable
+    decided_by : (C, P) int8
+        Every pair's stage code per configuration (an index into :data:`STAGES`),
+        pairs in ``np.triu_indices`` order of the objects.
+    pair_colliding : (C, P) bool
+    certificates : dict
+        ``(configuration, pair)`` -> Certificate; configuration -1 for a pair of
+        standing objects (the certificate holds in every configuration).
+    stopped_after_self : (C,) bool
     """
 
-    def __init__(self, names, first, second, same, codes, colliding, allowed_reasons,
-                 certificates, stopped_after_self):
-        self._names, self._first, self._second, self._same = names, first, second, same
-        self.decided_by, self.pair_colliding = codes, colliding
-        self._allowed_reasons = allowed_reasons
-        self._certificates = certificates          # (configuration or -1 for all, pair)
+    def __init__(self, table, decided_by, pair_colliding, certificates, stopped_after_self):
+        self.table = table
+        self.decided_by, self.pair_colliding = decided_by, pair_colliding
+        self.certificates = certificates
         self.stopped_after_self = stopped_after_self
 
     def __len__(self):
@@ -196,10 +241,10 @@ class CollisionReports(Sequence):
         if not -len(self) <= c < len(self):
             raise IndexError(f"configuration {c} out of range for {len(self)}")
         c %= len(self)
-        certificates = {k: cert for (at, k), cert in self._certificates.items() if at in (-1, c)}
-        return CollisionReport(self._names, self._first, self._second, self._same,
-                               self.decided_by[c], self.pair_colliding[c], self._allowed_reasons,
-                               certificates, bool(self.stopped_after_self[c]))
+        certificates = {k: cert for (at, k), cert in self.certificates.items()
+                        if at in (-1, c) and self.decided_by[c, k] == _CODE["certificate"]}
+        return CollisionReport(self.table, self.decided_by[c], self.pair_colliding[c],
+                               certificates, self.stopped_after_self[c])
 
     @cached_property
     def colliding(self):
@@ -208,36 +253,33 @@ class CollisionReports(Sequence):
 
     def counts(self):
         """How many (configuration, pair) entries each stage decided."""
-        found = np.bincount(self.decided_by.ravel(), minlength=len(STAGES))
-        return {name: int(n) for name, n in zip(STAGES, found) if n}
+        return _counts(self.decided_by)
 
 
-class CollisionWorld:
-    """Named meshes, pipes and primitives, placed by rigid transforms.
+# -- the scene -----------------------------------------------------------------------
+class Scene:
+    """Named meshes, pipes and primitives placed by rigid transforms: what is where.
 
-    Examples
-    --------
-    >>> world = CollisionWorld()
-    >>> world.add("link1", mesh, transform=T1, group="robot")      # doctest: +SKIP
-    >>> world.add("weld_pipe", pipe)                                # doctest: +SKIP
-    >>> world.allow("link1", "link2", reason="adjacent")            # doctest: +SKIP
-    >>> world.check().collisions                                    # doctest: +SKIP
+    Changed only by :meth:`add`, :meth:`allow`, :meth:`set_pose`,
+    :meth:`add_robot` and :meth:`set_joints`; ``layout_version`` counts the
+    first two kinds of change, ``pose_versions`` (N,) each object's moves.
     """
 
     def __init__(self):
         self._names, self._index, self._bodies, self._groups = [], {}, [], []
         self._poses = np.zeros((0, 4, 4))
-        self._versions = np.zeros(0, np.int64)
-        self._stale = np.zeros(0, bool)     # moved since their bounds were placed
+        self._pose_versions = np.zeros(0, np.int64)
         self._allowed = {}                 # (i, j) with i < j -> reason
         self._robots = {}                  # group -> (robot, base pose, object ids of links)
-        self._cache = {}                   # (i, j, certify) -> (versions, code, colliding, cert)
-        self._supports = None              # bounds.Supports of all objects, rebuilt on add()
-        self._placed = None                # world 18-DOP, OBB centre and axes per object
-        self._pair_table = None            # pairs, self-pair and allowed masks
-        self._reasons = {}                 # allowed pair index -> reason
+        self.layout_version = 0
 
-    # -- contents -------------------------------------------------------------
+    @property
+    def pose_versions(self):
+        """(N,) int: how often each object has moved (read-only view)."""
+        view = self._pose_versions.view()
+        view.flags.writeable = False
+        return view
+
     def add(self, name, obj, transform=None, group=None):
         """Add ``obj`` (a Mesh, Pipe, Box, Sphere or Capsule) under a new ``name``.
 
@@ -247,8 +289,8 @@ class CollisionWorld:
         if not isinstance(name, str) or not name:
             raise InputError(f"object name must be a non-empty string, got {name!r}")
         if name in self._index:
-            raise InputError(f"{name}: an object of that name is already in the world; "
-                             "use set_pose() to move it or pick another name")
+            raise InputError("an object of that name is already in the world; "
+                             "use set_pose() to move it or pick another name", part=name)
         pose = as_pose(transform, name)
         body = as_body(obj, name)
         self._index[name] = len(self._names)
@@ -256,9 +298,8 @@ class CollisionWorld:
         self._bodies.append(body)
         self._groups.append(None if group is None else str(group))
         self._poses = np.concatenate([self._poses, pose[None]])
-        self._versions = np.append(self._versions, 0)
-        self._stale = np.append(self._stale, True)
-        self._supports = self._placed = self._pair_table = None
+        self._pose_versions = np.append(self._pose_versions, 0)
+        self.layout_version += 1
         return self
 
     def _find(self, name):
@@ -266,7 +307,8 @@ class CollisionWorld:
             return self._index[name]
         except (KeyError, TypeError):
             known = ", ".join(self._names) or "none yet"
-            raise InputError(f"unknown object {name!r}; objects in the world: {known}") from None
+            raise InputError(f"unknown object {name!r}; objects in the world: {known}",
+                             part=name if isinstance(name, str) else None) from None
 
     @property
     def names(self):
@@ -278,6 +320,10 @@ class CollisionWorld:
     def pose(self, name):
         return self._poses[self._find(name)].copy()
 
+    def body(self, name):
+        """The :class:`~cadpipe.collision.bodies.Body` of ``name`` (in its own frame)."""
+        return self._bodies[self._find(name)]
+
     def set_pose(self, name, transform):
         """Move object ``name`` to a new rigid 4x4 ``transform``."""
         i = self._find(name)
@@ -285,26 +331,25 @@ class CollisionWorld:
 
     def _moved(self, ids, poses):
         self._poses[ids] = poses
-        self._versions[ids] += 1
-        self._stale[ids] = True
+        self._pose_versions[ids] += 1
 
     def allow(self, a, b, reason="allowed by user"):
         """Never report the pair ``a``, ``b`` (e.g. links joined by a joint)."""
         i, j = sorted((self._find(a), self._find(b)))
         if i == j:
-            raise InputError(f"allow({a!r}, {b!r}): an object cannot collide with itself")
+            raise InputError(f"allow({a!r}, {b!r}): an object cannot collide with itself",
+                             part=a)
         self._allowed[(i, j)] = str(reason)
-        self._pair_table = None
+        self.layout_version += 1
 
     @property
     def allowed(self):
-        """``(name_a, name_b, reason)`` for every allowed pair (a list, as
-        :attr:`CollisionReport.allowed`)."""
+        """``(name_a, name_b, reason)`` for every allowed pair, in the objects' order
+        (a list, as :attr:`CollisionReport.allowed`)."""
         return _deprecated.Listing([(self._names[i], self._names[j], r)
                                     for (i, j), r in sorted(self._allowed.items())],
                                    "CollisionWorld.allowed")
 
-    # -- robots ---------------------------------------------------------------
     def add_robot(self, robot, joints=None, transform=None, group=None):
         """Add each link of a :class:`~cadpipe.collision.Robot` with geometry, posed by
         ``joints``; the robot's allowed pairs (adjacent links, SRDF) come along.
@@ -318,12 +363,18 @@ class CollisionWorld:
             raise InputError(f"a robot with group {group!r} is already in the world; "
                              "pass another group=")
         base = as_pose(transform, f"robot {robot.name}")
+        shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
-            self.add(link, robot.link_meshes[link], transform=pose, group=group)
+            self.add(link, shapes[link], transform=pose, group=group)
         for a, b, reason in robot.allowed_pairs:
             self.allow(a, b, reason)
         self._robots[group] = (robot, base, np.array([self._index[k] for k in robot.link_meshes]))
         return self
+
+    def robot(self, group):
+        """``(robot, base pose)`` of the robot added as ``group``."""
+        robot, base, _ = self._robot(group)
+        return robot, base.copy()
 
     def _robot(self, group):
         if group not in self._robots:
@@ -336,49 +387,335 @@ class CollisionWorld:
         robot, base, ids = self._robot(group)
         self._moved(ids, robot.link_poses_at(joints, base))
 
-    # -- bounding volumes -------------------------------------------------------
-    def _placed_bounds(self):
-        """World 18-DOP (its first three slabs are the AABB), OBB centre and OBB axes of
-        every object where it stands; objects moved since the last call are placed
-        again."""
-        if self._supports is None:
-            self._supports = bounds.Supports([b.support for b in self._bodies],
-                                             [b.obb for b in self._bodies])
-            n = len(self._bodies)
-            self._placed = (np.zeros((n, 2, 9)), np.zeros((n, 3)), np.zeros((n, 3, 3)))
-            self._stale[:] = True
-        if self._stale.any():
-            ids = self._stale.nonzero()[0]
-            for target, value in zip(self._placed, self._supports.place(
-                    ids, self._poses[ids, :3, :3], self._poses[ids, :3, 3])):
-                target[ids] = value
-            self._stale[:] = False
-        return self._placed
+
+# -- the checker ---------------------------------------------------------------------
+class _Layout:
+    """What the checker derives from a scene's layout (its objects and allowed
+    pairs, not their poses): the pair table and the packed bounding volumes."""
+
+    def __init__(self, scene):
+        n = len(scene._names)
+        first, second = np.triu_indices(n, k=1)
+        ids = {g: k for k, g in enumerate(dict.fromkeys(scene._groups))}
+        groups = np.array([-1 if g is None else ids[g] for g in scene._groups], np.int64)
+        same = (groups[first] == groups[second]) & (groups[first] != -1)
+        allowed = np.zeros(len(first), bool)
+        reasons = {}
+        for (i, j), reason in scene._allowed.items():
+            k = bounds.pair_index(i, j, n)
+            allowed[k], reasons[k] = True, reason
+        self.table = PairTable(tuple(scene._names), first, second, same, allowed, reasons)
+        self.groups = np.array(scene._groups, object)
+        bodies = scene._bodies
+        supports = [b.support for b in bodies]
+        counts = [len(p) for p, _ in supports]
+        self.starts = np.r_[0, np.cumsum(counts)].astype(np.int64)
+        self.points = np.concatenate([p for p, _ in supports]).reshape(-1, 3)
+        self.pads = np.concatenate([np.broadcast_to(r, len(p)) for p, r in supports]) \
+            .astype(np.float64)
+        self.slack = np.array([bounds.rounding_slack(p) for p, _ in supports]).reshape(-1)
+        self.obb_centre = np.array([b.obb[0] for b in bodies]).reshape(-1, 3)
+        self.obb_axes = np.array([b.obb[1] for b in bodies]).reshape(-1, 3, 3)
+        self.half = np.array([b.obb[2] for b in bodies]).reshape(-1, 3)
+
+    def place(self, ids, poses):
+        """Bounds of objects ``ids`` (E,) at ``poses`` (E, 4, 4): world 18-DOPs
+        (E, 2, 9) (the first three slabs are the AABB), OBB centres (E, 3) and
+        axes (E, 3, 3)."""
+        count = len(ids)
+        kdop, centre, axes = np.empty((count, 2, 9)), np.empty((count, 3)), np.empty((count, 3, 3))
+        funnel.place(self.points, self.pads, self.starts, self.slack, self.obb_centre,
+                     self.obb_axes, np.asarray(ids, np.int64),
+                     np.ascontiguousarray(poses, np.float64), kdop, centre, axes,
+                     np.arange(count, dtype=np.int64))
+        return kdop, centre, axes
+
+
+class Checker:
+    """Decides the pairs of a :class:`Scene`; see the module docstring.
+
+    Its caches are keyed by the scene's versions: the layout by
+    ``layout_version``, each object's placed bounds by its pose version, each
+    pair's answer by the pose versions of its two objects (and ``certify``).
+    """
+
+    def __init__(self, scene):
+        self.scene = scene
+        self._layout_key, self._layout = None, None
+        self._answers = {}                 # certify -> _Answers
+
+    @property
+    def layout(self):
+        if self._layout_key != self.scene.layout_version:
+            self._layout = _Layout(self.scene)
+            self._layout_key = self.scene.layout_version
+            self._answers.clear()
+            self._placed = _Placed(self._layout)
+        return self._layout
+
+    def placed(self):
+        """Bounds of every object where it stands (see :meth:`_Layout.place`),
+        placed again for the objects whose pose version changed."""
+        layout = self.layout
+        return self._placed.current(self.scene._poses, self.scene._pose_versions, layout)
 
     def bounds(self, name):
         """The world AABB of ``name`` as a (2, 3) array."""
-        i = self._find(name)
-        return self._placed_bounds()[0][i, :, :3].copy()
+        i = self.scene._find(name)
+        return self.placed()[0][i, :, :3].copy()
 
-    # -- checks ---------------------------------------------------------------
-    def _pairs(self):
-        """Every pair (i < j) in ``np.triu_indices`` order, whether it is a self pair,
-        and the allowed mask; cached until objects change."""
-        if self._pair_table is None:
-            n = len(self._names)
-            first, second = np.triu_indices(n, k=1)
-            ids = {g: k for k, g in enumerate(dict.fromkeys(self._groups))}
-            groups = np.array([-1 if g is None else ids[g] for g in self._groups], np.int64)
-            same = (groups[first] == groups[second]) & (groups[first] != -1)
-            allowed = np.zeros(len(first), bool)
-            for i, j in self._allowed:
-                allowed[(i * (2 * n - i - 1)) // 2 + j - i - 1] = True
-            self._pair_table = first, second, same, allowed
-            self._reasons = {k: self._allowed[(first[k], second[k])]
-                             for k in np.flatnonzero(allowed)}
-        return self._pair_table
+    # -- checks ----------------------------------------------------------------
+    def check(self, stop_after_self=False, certify=False, first_hit=False, only=None):
+        """Decide every pair where the objects stand; a :class:`CollisionReport`.
+        See :meth:`CollisionWorld.check`."""
+        table = self.layout.table
+        chosen = ~table.allowed if only is None else ~table.allowed & self._involving(only)
+        return self._standing(chosen, stop_after_self, certify, first_hit)
 
-    def check(self, stop_after_self=False, certify=False):
+    def _standing(self, chosen, stop_after_self, certify, first_hit):
+        """The report of the pairs ``chosen`` (P,) where their objects stand; the
+        others are ``"allowed"`` or ``"not checked"``."""
+        layout, scene = self.layout, self.scene
+        table, placed = layout.table, self._placed
+        answers = self._answers.setdefault(bool(certify), _Answers(len(table)))
+        versions = scene._pose_versions
+        exact = np.empty(len(table), np.int64)
+        hits = np.zeros(2, bool)                     # (a self pair, another pair) collides
+        count = funnel.refresh(layout.points, layout.pads, layout.starts, layout.slack,
+                               layout.obb_centre, layout.obb_axes, layout.half, scene._poses,
+                               versions, placed.at, placed.kdop, placed.centre, placed.axes,
+                               table.first, table.second, table.same, chosen, answers.at_a,
+                               answers.at_b, answers.code, answers.colliding, exact, hits)
+        if answers.certificates:                     # pairs the boxes have decided since
+            for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
+                del answers.certificates[k]
+        # the exact phase, self pairs first; stop where asked to
+        for pair in exact[:count].tolist():
+            own = table.same[pair]
+            if (first_hit and hits.any()) or (stop_after_self and not own and hits[0]):
+                break
+            i, j = table.first[pair], table.second[pair]
+            code, touching, certs = self._settle(i, j, scene._poses[i][None],
+                                                 scene._poses[j][None], certify)
+            answers.store(pair, code[0], touching[0], versions, table, certs.get(0))
+            hits[0 if own else 1] |= touching[0]
+        stopped = stop_after_self and bool(hits[0])
+        codes, colliding = np.empty(len(table), np.int8), np.empty(len(table), bool)
+        funnel.summarize(chosen, table.same, table.allowed, stopped, table.first, table.second,
+                         versions, answers.at_a, answers.at_b, answers.code, answers.colliding,
+                         codes, colliding, _CODE["allowed"], _CODE["not checked"])
+        certificates = {k: c for k, c in answers.certificates.items()
+                        if codes[k] == _CODE["certificate"]}
+        return CollisionReport(table, codes, colliding, certificates, stopped)
+
+    def _involving(self, group):
+        """(P,) mask of the pairs with an object of ``group``."""
+        table, groups = self.layout.table, self.layout.groups
+        if group not in set(groups):
+            raise InputError(f"check(only={group!r}): no object in that group; groups: "
+                             + ", ".join(sorted({str(g) for g in groups if g is not None})))
+        member = groups == group
+        return member[table.first] | member[table.second]
+
+    def check_moving(self, ids, poses, stop_after_self=False, certify=False):
+        """Every pair in each of C configurations: objects ``ids`` (m,) at ``poses``
+        (C, m, 4, 4), all others where they stand; a :class:`CollisionReports`.
+
+        Pairs of standing objects are decided once, as :meth:`check` decides
+        them; pairs with a moving object go through the funnel for all
+        configurations together, in chunks that keep the entry arrays small.
+        """
+        layout, n = self.layout, len(self.scene._names)
+        table = layout.table
+        count = len(poses)
+        moving = np.zeros(n, bool)
+        moving[ids] = True
+        standing_pairs = ~moving[table.first] & ~moving[table.second]
+        codes = np.full((count, len(table)), _CODE["allowed"], np.int8)
+        colliding = np.zeros(codes.shape, bool)
+        certificates = {}
+        if standing_pairs.any():
+            still = self._standing(standing_pairs & ~table.allowed, False, certify, False)
+            codes[:, standing_pairs] = still.decided_by[standing_pairs]
+            colliding[:, standing_pairs] = still.pair_colliding[standing_pairs]
+            # configuration -1: a certificate that holds in every configuration
+            certificates.update({(-1, k): cert for k, cert in still.certificates.items()})
+        pairs = np.flatnonzero(~standing_pairs & ~table.allowed)
+        for start in range(0, count, CONFIGURATION_CHUNK):
+            part = slice(start, start + CONFIGURATION_CHUNK)
+            found = self._moving_pairs(ids, poses[part], pairs, codes[part], colliding[part],
+                                       certify)
+            certificates.update({(c + start, k): cert for (c, k), cert in found.items()})
+        stopped = np.zeros(count, bool)
+        if stop_after_self:
+            stopped = colliding[:, table.same].any(axis=1)
+            rest = ~table.same & ~table.allowed
+            codes[np.ix_(stopped, rest)] = _CODE["not checked"]
+            colliding[np.ix_(stopped, rest)] = False
+        return CollisionReports(table, codes, colliding, certificates, stopped)
+
+    def _moving_pairs(self, ids, poses, pairs, codes, colliding, certify):
+        """Decide ``pairs`` (each with a moving object) in each configuration of
+        ``poses`` (C, m, 4, 4) into ``codes``, ``colliding`` (C, P); returns the
+        certificates by (configuration, pair)."""
+        layout, scene = self.layout, self.scene
+        table, n = layout.table, len(scene._names)
+        count, m = poses.shape[:2]
+        # slot[c, i]: the row of object i's placed bounds in configuration c: its
+        # standing row (< n), or one of the C * m rows placed for the movers
+        slot = np.broadcast_to(np.arange(n), (count, n)).copy()
+        slot[:, ids] = n + np.arange(count * m).reshape(count, m)
+        moved = layout.place(np.tile(ids, count), poses.reshape(-1, 4, 4))
+        kdop, centre, axes = (np.concatenate([a, b]) for a, b in zip(self.placed(), moved))
+        obj = np.r_[np.arange(n), np.tile(ids, count)]
+        slot_poses = np.concatenate([scene._poses, poses.reshape(-1, 4, 4)])
+        config = np.repeat(np.arange(count), len(pairs))
+        k = np.tile(pairs, count)
+        slot_a, slot_b = slot[config, table.first[k]], slot[config, table.second[k]]
+        found = np.empty(len(k), np.int8)
+        funnel.decide(kdop, centre, axes, layout.half[obj], slot_a, slot_b, found)
+        boxed = found != funnel.NARROW
+        codes[config[boxed], k[boxed]] = found[boxed]
+        rest = (~boxed).nonzero()[0]
+        rest = rest[np.argsort(k[rest], kind="stable")]
+        certificates = {}
+        pair_ids, starts = np.unique(k[rest], return_index=True)
+        for pair, at in zip(pair_ids, np.split(rest, starts[1:])):
+            code, touching, certs = self._settle(table.first[pair], table.second[pair],
+                                                 slot_poses[slot_a[at]], slot_poses[slot_b[at]],
+                                                 certify)
+            codes[config[at], pair], colliding[config[at], pair] = code, touching
+            certificates.update({(config[at[e]], pair): cert for e, cert in certs.items()})
+        return certificates
+
+    def _settle(self, i, j, poses_a, poses_b, certify):
+        """``(codes, touching, certificates by entry)`` of one pair at E placements:
+        the certificate first when asked for, then the exact narrow phase."""
+        body_a, body_b = self.scene._bodies[i], self.scene._bodies[j]
+        certificates = {}
+        if certify:
+            from cadpipe.collision.certificate import find_certificate
+
+            for e in range(len(poses_a)):
+                cert = find_certificate(body_a, poses_a[e], body_b, poses_b[e],
+                                        names=(self.scene._names[i], self.scene._names[j]))
+                if cert is not None:
+                    certificates[e] = cert
+        exact = _CODE["analytic" if body_a.kind == body_b.kind == "chain" else "fcl"]
+        if not certificates:
+            touching, contained = narrow.collide(body_a, poses_a, body_b, poses_b)
+            return np.where(contained, _CODE["containment"], exact).astype(np.int8), touching, {}
+        todo = np.ones(len(poses_a), bool)
+        todo[list(certificates)] = False
+        codes = np.full(len(poses_a), _CODE["certificate"], np.int8)
+        touching = np.zeros(len(poses_a), bool)
+        if todo.any():
+            hit, contained = narrow.collide(body_a, poses_a[todo], body_b, poses_b[todo])
+            codes[todo] = np.where(contained, _CODE["containment"], exact)
+            touching[todo] = hit
+        return codes, touching, certificates
+
+    # -- per-pair queries ---------------------------------------------------------
+    def distance(self, a, b):
+        """Clearance between ``a`` and ``b`` with the closest points (a
+        :class:`Clearance`); 0 when they touch or one contains the other."""
+        i, j = self.scene._find(a), self.scene._find(b)
+        dist, pa, pb, stage = narrow.distance(self.scene._bodies[i], self.scene._poses[i], self.scene._bodies[j],
+                                              self.scene._poses[j])
+        return Clearance(float(dist), pa, pb, dist <= 0, stage)
+
+    def separate(self, a, b, step_degrees=None):
+        """The source's separation certificate for ``a`` and ``b``, or None.
+
+        A returned :class:`~cadpipe.collision.certificate.Certificate` has passed
+        its independent verifier: it proves the pair does not touch.
+        """
+        from cadpipe.collision.certificate import find_certificate
+
+        i, j = self.scene._find(a), self.scene._find(b)
+        options = {} if step_degrees is None else {"step_degrees": step_degrees}
+        return find_certificate(self.scene._bodies[i], self.scene._poses[i], self.scene._bodies[j],
+                                self.scene._poses[j], names=(a, b), **options)
+
+    def inside(self, pipe_name, points):
+        """Virtual fixture: which ``(P, 3)`` world points lie inside the pipe (or other
+        ball chain) ``pipe_name``, and where the polyline through them first leaves it.
+
+        Returns a :class:`PipeContainment`.
+        """
+        from cadpipe._validate import as_points
+        from cadpipe.collision.fixture import containment
+
+        i = self.scene._find(pipe_name)
+        body = self.scene._bodies[i]
+        if body.kind != "chain":
+            raise InputError(f"inside({pipe_name!r}): that object is a mesh; inside() needs a "
+                             "pipe, sphere or capsule (use distance() for meshes)")
+        points = as_points(points, "points")
+        return containment(body.chain.moved(self.scene._poses[i]), points)
+
+
+class _Placed:
+    """Every object's placed bounds, each row with the pose version it was placed at."""
+
+    def __init__(self, layout):
+        n = len(layout.table.names)
+        self.kdop, self.centre, self.axes = np.empty((n, 2, 9)), np.empty((n, 3)), \
+            np.empty((n, 3, 3))
+        self.at = np.full(n, -1, np.int64)
+
+    def current(self, poses, versions, layout):
+        ids = (self.at != versions).nonzero()[0]
+        if ids.size:
+            funnel.place(layout.points, layout.pads, layout.starts, layout.slack,
+                         layout.obb_centre, layout.obb_axes, ids, poses[ids], self.kdop,
+                         self.centre, self.axes, ids)
+            self.at[ids] = versions[ids]
+        return self.kdop, self.centre, self.axes
+
+
+class _Answers:
+    """Each pair's last answer, with the pose versions of its objects it holds for."""
+
+    def __init__(self, count):
+        self.code = np.zeros(count, np.int8)
+        self.colliding = np.zeros(count, bool)
+        self.at_a = np.full(count, -1, np.int64)
+        self.at_b = np.full(count, -1, np.int64)
+        self.certificates = {}
+
+    def store(self, k, code, colliding, versions, table, certificate=None):
+        """The answer for pair ``k``, holding while its objects are at ``versions``."""
+        self.code[k], self.colliding[k] = code, colliding
+        self.at_a[k], self.at_b[k] = versions[table.first[k]], versions[table.second[k]]
+        self.certificates.pop(k, None)
+        if certificate is not None:
+            self.certificates[k] = certificate
+
+
+# -- the world -----------------------------------------------------------------------
+class CollisionWorld(Scene):
+    """A :class:`Scene` with the checks of its :class:`Checker`.
+
+    Examples
+    --------
+    >>> world = CollisionWorld()
+    >>> world.add("link1", mesh, transform=T1, group="robot")      # doctest: +SKIP
+    >>> world.add("weld_pipe", pipe)                                # doctest: +SKIP
+    >>> world.allow("link1", "link2", reason="adjacent")            # doctest: +SKIP
+    >>> world.check().collisions                                    # doctest: +SKIP
+    """
+
+    @cached_property
+    def checker(self):
+        """The :class:`Checker` of this scene."""
+        return Checker(self)
+
+    def bounds(self, name):
+        """The world AABB of ``name`` as a (2, 3) array."""
+        return self.checker.bounds(name)
+
+    def check(self, stop_after_self=False, certify=False, first_hit=False, only=None):
         """Decide every pair; returns a :class:`CollisionReport`.
 
         Parameters
@@ -391,11 +728,28 @@ class CollisionWorld:
             Before the exact test, try the source's separation certificate on
             pairs whose boxes overlap; a pair it separates is decided by
             ``"certificate"`` and carries the certificate.
-        """
-        return self._evaluate(np.zeros(0, np.int64), np.zeros((1, 0, 4, 4)), stop_after_self,
-                              certify)[0]
+        first_hit : bool
+            Stop at the first collision found (self pairs are tried first):
+            the pairs the exact phase had not reached are ``"not checked"``.
+            ``bool(report)`` is then the answer a planner's validity check needs.
+        only : str, optional
+            A group (a robot's name): decide only the pairs with an object of
+            that group -- the robot against itself and the world -- and leave
+            obstacle-obstacle pairs ``"not checked"``.
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False):
+        Pairs whose objects have not moved since they were last decided keep
+        that answer: after ``set_joints`` only the robot's pairs are decided.
+        """
+        return self.checker.check(stop_after_self, certify, first_hit, only)
+
+    def check_motion(self, group, q_a, q_b, tolerance=None):
+        """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
+        ``q_b`` (a :class:`~cadpipe.collision.motion.MotionCheck`); see
+        :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
+        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
+
+    def check_path(self, group, configurations, stop_after_self=False, certify=False,
+                   between=False, tolerance=None):
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass; returns :class:`CollisionReports`.
 
@@ -404,10 +758,19 @@ class CollisionWorld:
         stands -- the motion between them is not swept -- and its report is
         the one :meth:`set_joints` then :meth:`check` would give. The robot
         stays where :meth:`set_joints` last put it.
+
+        With ``between=True`` the motion between consecutive configurations is
+        certified instead (conservative advancement, stopping at the first
+        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
         """
+        if between:
+            from cadpipe.collision import motion
+
+            return motion.check_motion(self, group, configurations,
+                                       motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
-        return self._evaluate(ids, poses, stop_after_self, certify)
+        return self.checker.check_moving(ids, poses, stop_after_self, certify)
 
     def check_many(self, poses, stop_after_self=False, certify=False):
         """:meth:`check` with objects placed at each of C poses, in one vectorized pass.
@@ -425,194 +788,26 @@ class CollisionWorld:
         if any(p.ndim != 3 for p in stacked) or len({len(p) for p in stacked}) != 1:
             raise InputError("check_many(poses): every object needs a (C, 4, 4) array with the "
                              "same C, got shapes " + ", ".join(str(p.shape) for p in stacked))
-        return self._evaluate(ids, np.stack(stacked, axis=1), stop_after_self, certify)
-
-    def _evaluate(self, ids, poses, stop_after_self, certify):
-        """Every pair in each of C configurations: objects ``ids`` at ``poses``
-        (C, m, 4, 4), all others where they stand. Configurations go through in
-        chunks that keep the entry arrays small."""
-        first, second, same, allowed = self._pairs()
-        count = len(poses)
-        codes = np.full((count, len(first)), _CODE["aabb"], np.int8)
-        codes[:, allowed] = _CODE["allowed"]
-        colliding = np.zeros(codes.shape, bool)
-        stopped = np.zeros(count, bool)
-        certificates = {}
-        if len(self._names) >= 2:
-            for start in range(0, count, CONFIGURATION_CHUNK):
-                part = slice(start, start + CONFIGURATION_CHUNK)
-                entries = self._broad_phase(ids, poses[part], codes[part])
-                found = self._narrow_phase(entries, codes[part], colliding[part],
-                                           stopped[part], stop_after_self, certify)
-                certificates.update({(c if c < 0 else c + start, k): cert
-                                     for (c, k), cert in found.items()})
-        return CollisionReports(tuple(self._names), first, second, same, codes, colliding,
-                                self._reasons, certificates, stopped)
-
-    def _broad_phase(self, ids, poses, codes):
-        """Run the bounding-volume stages over every (configuration, pair) entry,
-        recording the pairs they decide in ``codes``; returns the entries left as
-        ``(configuration, pair, pose_a, pose_b)`` arrays.
-
-        Objects are placed in slots: slot ``i < n`` is object ``i`` where it
-        stands, slot ``n + c m + r`` is object ``ids[r]`` in configuration ``c``.
-        A pair of standing objects is one entry (configuration -1: all of them);
-        a pair with a moving object gets one entry per configuration.
-        """
-        n, (count, m) = len(self._names), poses.shape[:2]
-        first, second, same, allowed = self._pairs()
-        kdop, centre, axes = self._placed_bounds()
-        standing = ~allowed
-        if m:
-            moving = np.zeros(n, bool)
-            moving[ids] = True
-            standing = standing & ~moving[first] & ~moving[second]
-        near = bounds.overlapping_pairs(kdop[:, 0, :3], kdop[:, 1, :3], first, second)
-        k = (standing & near).nonzero()[0]
-        config, slot_a, slot_b = np.full(len(k), -1), first[k], second[k]
-        objects, slot_poses = np.arange(n), self._poses
-        if m:
-            placed_ids = np.tile(ids, count)
-            placed = self._supports.place(placed_ids, poses[..., :3, :3].reshape(-1, 3, 3),
-                                          poses[..., :3, 3].reshape(-1, 3))
-            kdop, centre, axes = (np.concatenate([a, b]) for a, b in zip(self._placed, placed))
-            objects, slot_poses = np.r_[objects, placed_ids], np.concatenate(
-                [self._poses, poses.reshape(-1, 4, 4)])
-            rank = np.zeros(n, np.int64)
-            rank[ids] = np.arange(m)
-            pairs = np.flatnonzero(~allowed & (moving[first] | moving[second]))
-            c, kk = np.repeat(np.arange(count), len(pairs)), np.tile(pairs, count)
-            a, b = first[kk], second[kk]
-            a = np.where(moving[a], n + c * m + rank[a], a)
-            b = np.where(moving[b], n + c * m + rank[b], b)
-            box_a, box_b = kdop[a, :, :3], kdop[b, :, :3]
-            near = bounds.boxes_overlap(box_a[:, 0], box_a[:, 1], box_b[:, 0], box_b[:, 1])
-            config, k = np.r_[config, c[near]], np.r_[k, kk[near]]
-            slot_a, slot_b = np.r_[slot_a, a[near]], np.r_[slot_b, b[near]]
-        dop_a, dop_b = kdop[slot_a], kdop[slot_b]
-        keep = bounds.boxes_overlap(dop_a[:, 0], dop_a[:, 1], dop_b[:, 0], dop_b[:, 1])
-        _record(codes, config[~keep], k[~keep], _CODE["kdop"])
-        config, k, slot_a, slot_b = config[keep], k[keep], slot_a[keep], slot_b[keep]
-        half = self._supports.half
-        keep = bounds.obb_overlap(centre[slot_a], axes[slot_a], half[objects[slot_a]],
-                                  centre[slot_b], axes[slot_b], half[objects[slot_b]])
-        _record(codes, config[~keep], k[~keep], _CODE["obb"])
-        return config[keep], k[keep], slot_poses[slot_a[keep]], slot_poses[slot_b[keep]]
-
-    def _narrow_phase(self, entries, codes, colliding, stopped, stop_after_self, certify):
-        """Decide the entries the bounding volumes left, self pairs first; returns
-        the certificates found, by (configuration, pair)."""
-        config, k, poses_a, poses_b = entries
-        first, second, same, allowed = self._pairs()
-        certificates = {}
-        own = same[k]
-        self._decide(config, k, poses_a, poses_b, own.nonzero()[0], codes, colliding,
-                     certificates, certify)
-        world = (~own).nonzero()[0]
-        if stop_after_self:
-            stopped[:] = colliding[:, same].any(axis=1)
-            at = config[world]
-            world = world[np.where(at < 0, not stopped.all(), ~stopped[at])]
-        self._decide(config, k, poses_a, poses_b, world, codes, colliding, certificates,
-                     certify)
-        if stopped.any():
-            rest = ~same & ~allowed
-            codes[np.ix_(stopped, rest)] = _CODE["not checked"]
-            colliding[np.ix_(stopped, rest)] = False
-        return certificates
-
-    def _decide(self, config, k, poses_a, poses_b, chosen, codes, colliding, certificates,
-                certify):
-        """The exact answer for entries ``chosen``: a pair of standing objects on its
-        own (its answer kept while neither moves), the others one batch per pair."""
-        first, second, _, _ = self._pairs()
-        moving = config[chosen] >= 0
-        for e in chosen[~moving]:
-            pair = k[e]
-            codes[:, pair], colliding[:, pair], cert = self._standing(
-                first[pair], second[pair], poses_a[e], poses_b[e], certify)
-            if cert is not None:
-                certificates[(-1, pair)] = cert
-        batch = chosen[moving]
-        if not batch.size:
-            return
-        batch = batch[np.argsort(k[batch], kind="stable")]
-        pairs, starts = np.unique(k[batch], return_index=True)
-        for pair, at in zip(pairs, np.split(batch, starts[1:])):
-            code, touching, certs = self._settle(first[pair], second[pair], poses_a[at],
-                                                 poses_b[at], certify)
-            codes[config[at], pair], colliding[config[at], pair] = code, touching
-            certificates.update({(config[at[e]], pair): cert for e, cert in certs.items()})
-
-    def _standing(self, i, j, pose_a, pose_b, certify):
-        """``(code, colliding, certificate)`` of a pair of standing objects, reused
-        while neither has moved."""
-        key, versions = (i, j, certify), (self._versions[i], self._versions[j])
-        cached = self._cache.get(key)
-        if cached is None or cached[0] != versions:
-            code, touching, certs = self._settle(i, j, pose_a[None], pose_b[None], certify)
-            cached = self._cache[key] = (versions, code[0], touching[0], certs.get(0))
-        return cached[1:]
-
-    def _settle(self, i, j, poses_a, poses_b, certify):
-        """``(codes, touching, certificates by entry)`` of one pair at E placements:
-        the certificate first when asked for, then the exact narrow phase."""
-        body_a, body_b = self._bodies[i], self._bodies[j]
-        certificates = {}
-        if certify:
-            from cadpipe.collision.certificate import find_certificate
-
-            for e in range(len(poses_a)):
-                cert = find_certificate(body_a, poses_a[e], body_b, poses_b[e],
-                                        names=(self._names[i], self._names[j]))
-                if cert is not None:
-                    certificates[e] = cert
-        if certificates:
-            todo = np.ones(len(poses_a), bool)
-            todo[list(certificates)] = False
-            poses_a, poses_b = poses_a[todo], poses_b[todo]
-        touching, contained = narrow.collide(body_a, poses_a, body_b, poses_b)
-        exact = _CODE["analytic" if body_a.kind == body_b.kind == "chain" else "fcl"]
-        codes = np.where(contained, _CODE["containment"], exact).astype(np.int8)
-        if certificates:
-            codes, touching = _expand(codes, todo, _CODE["certificate"]), _expand(touching, todo,
-                                                                                  False)
-        return codes, touching, certificates
+        return self.checker.check_moving(ids, np.stack(stacked, axis=1), stop_after_self,
+                                         certify)
 
     def distance(self, a, b):
-        """Clearance between ``a`` and ``b`` with the closest points (a
-        :class:`Clearance`); 0 when they touch or one contains the other."""
+        """See :meth:`Checker.distance`."""
+        return self.checker.distance(a, b)
+
+    def distance_at(self, a, b, pose_a, pose_b, containment=True):
+        """Clearance (0 when touching) between ``a`` placed at ``pose_a`` and ``b`` at
+        ``pose_b``, rigid 4x4 poses; where they stand is unchanged. With
+        ``containment=False`` it is the distance between the boundaries (a solid
+        inside another is not seen), as a motion from a free state needs."""
         i, j = self._find(a), self._find(b)
-        dist, pa, pb, stage = narrow.distance(self._bodies[i], self._poses[i], self._bodies[j],
-                                              self._poses[j])
-        return Clearance(float(dist), pa, pb, dist <= 0, stage)
+        return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
+                                     containment)[0])
 
     def separate(self, a, b, step_degrees=None):
-        """The source's separation certificate for ``a`` and ``b``, or None.
-
-        A returned :class:`~cadpipe.collision.certificate.Certificate` has passed
-        its independent verifier: it proves the pair does not touch.
-        """
-        from cadpipe.collision.certificate import find_certificate
-
-        i, j = self._find(a), self._find(b)
-        options = {} if step_degrees is None else {"step_degrees": step_degrees}
-        return find_certificate(self._bodies[i], self._poses[i], self._bodies[j],
-                                self._poses[j], names=(a, b), **options)
+        """See :meth:`Checker.separate`."""
+        return self.checker.separate(a, b, step_degrees)
 
     def inside(self, pipe_name, points):
-        """Virtual fixture: which ``(P, 3)`` world points lie inside the pipe (or other
-        ball chain) ``pipe_name``, and where the polyline through them first leaves it.
-
-        Returns a :class:`PipeContainment`.
-        """
-        from cadpipe._validate import as_points
-        from cadpipe.collision.fixture import containment
-
-        i = self._find(pipe_name)
-        body = self._bodies[i]
-        if body.kind != "chain":
-            raise InputError(f"inside({pipe_name!r}): that object is a mesh; inside() needs a "
-                             "pipe, sphere or capsule (use distance() for meshes)")
-        points = as_points(points, "points")
-        return containment(body.chain.moved(self._poses[i]), points)
+        """See :meth:`Checker.inside`."""
+        return self.checker.inside(pipe_name, points)

@@ -1,14 +1,25 @@
 """Frames along paths: the direction each ring's first vertex points to.
 
-The default is the rotation-minimizing frame of Wang et al. (2008, "double
-reflection"), which does not twist. Each step's double reflection is a rotation
-that does not depend on the frame it moves, so the frame's angle against a local
-reference is a cumulative sum of per-step angles: the whole frame comes from
-vectorized numpy, with no loop over path points, and a batch of paths is one
-running sum restarted at each path's first point (:class:`~cadpipe.geometry.ragged.Groups`).
+The default is the rotation-minimizing frame of the polyline itself: discrete
+parallel transport (Bishop frame), which rotates only at corners, by the minimal
+rotation taking the incoming direction to the outgoing one, and never along a
+straight segment. A mitered ring sits in the bisector plane, so it takes half of
+each corner's rotation, and the step from ring i to ring i+1 is the minimal
+rotation from tangent ``t_i`` to the segment direction ``d`` followed by the one
+from ``d`` to ``t_{i+1}``. (The double reflection of Wang et al. 2008 maps
+``t_i`` to ``t_{i+1}`` directly and so twists a straight segment between two
+non-coplanar corners; on finely sampled smooth curves both converge to the
+curve's rotation-minimizing frame.) Each step is a rotation that does not depend
+on the frame it moves, so the frame's angle against a local reference is a
+cumulative sum of per-step angles: the whole frame comes from vectorized numpy,
+with no loop over path points, and a batch of paths is one running sum restarted
+at each path's first point (:class:`~cadpipe.geometry.ragged.Groups`).
 
 The source document's rule, ``unit(OP x L)``, is kept as ``frame="patent"`` for
-comparison; it twists and is undefined where a tangent points at the origin.
+comparison. Its sign is chosen to keep the frame continuous (the raw rule flips
+180 degrees where the tangent swings through OP), and it is refused where it is
+undefined (OP parallel to the tangent) or turns a ring by more than
+:data:`MAX_TWIST_STEP` in one step.
 """
 
 import numpy as np
@@ -21,6 +32,10 @@ FRAME_MODES = ("rmf", "patent")
 
 #: stands for "no direction given" in a batch's (G, 3) array of directions
 NO_DIRECTION = np.full(3, np.nan)
+
+#: most twist between neighbouring rings (radians): a band twisted by delta sags to
+#: cos(delta / 2) of its radius between the rings, so 16.2 degrees pinches it by 1%
+MAX_TWIST_STEP = 2 * np.arccos(0.99)
 
 
 def as_direction(value, name):
@@ -60,11 +75,20 @@ def _reflect(v, normal, normal_sq):
     return v - factor * normal
 
 
+def _minimal_rotation(a, b, x):
+    """Rotate each ``x`` by the smallest rotation taking unit ``a`` to unit ``b``
+    (``a . b > 0`` here: a tangent and a segment beside it are less than 90 degrees
+    apart): ``x + 2 (a.x) b - ((a + b).x) / (1 + a.b) (a + b)``."""
+    s = a + b
+    return x + 2.0 * dot(a, x, 0) * b - (dot(s, x, 0) / (1.0 + dot(a, b, 0))) * s
+
+
 def _turns(v1, t, t_next, u, u_next, w_next):
-    """Angle the double reflection along segment ``v1`` turns ``u`` by, against ``u_next``."""
-    c1 = dot(v1, v1, 0)
-    v2 = t_next - _reflect(t, v1, c1)
-    moved = _reflect(_reflect(u, v1, c1), v2, dot(v2, v2, 0))
+    """Angle the parallel transport along segment ``v1`` turns ``u`` by, against ``u_next``:
+    half of the corner at the segment's start (``t`` to the segment), then half of the
+    one at its end (the segment to ``t_next``); nothing along the segment itself."""
+    d = v1 / norm(v1, 0)
+    moved = _minimal_rotation(d, t_next, _minimal_rotation(t, d, u))
     return np.arctan2(dot(moved, w_next, 0), dot(moved, u_next, 0))
 
 
@@ -95,7 +119,8 @@ def _angles_in_plane(vectors, tangents, u, w, name):
     return np.arctan2(dot(across, w, 0), dot(across, u, 0))
 
 
-def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, symmetry=None):
+def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, symmetry=None,
+           gentle=False):
     """Unit normals (ring vertex 0 directions) along a batch of paths, and seam shifts.
 
     Parameters
@@ -116,6 +141,9 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
     symmetry : float or (G,) array, optional
         Angle by which each path's ring is symmetric (``2*pi/sides``); a full turn
         by default.
+    gentle : bool
+        Refuse (:class:`InputError`, key ``end_normal``) an end normal whose twist
+        would turn neighbouring rings by more than :data:`MAX_TWIST_STEP`.
 
     Returns
     -------
@@ -162,6 +190,8 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
         steps = np.round(mismatch / symmetry)
         excess = np.where(adjust, mismatch - steps * symmetry, 0.0)
         total = np.where(adjust, lines.lengths, 1.0)
+        if gentle:
+            _require_gentle_twist(lines, np.where(ends, excess / total, 0.0))
         phi = phi + g.spread(excess) * lines.arc_length / g.spread(total)
         shift = -steps.astype(np.int64)
     out = np.empty((3, g.size))
@@ -169,16 +199,65 @@ def frames(lines, tangents, *, patent=False, normals=None, end_normals=None, sym
         np.add(np.cos(phi[rows]) * u[:, rows], np.sin(phi[rows]) * w[:, rows], out=out[:, rows])
     if patent.any():
         rows = patent[g.index]
-        out[:, rows] = _patent_normals(lines.xyz[:, rows], tangents[:, rows], out[:, rows])
+        out[:, rows] = _patent_normals(lines, tangents, out, rows)
     return out, shift
 
 
-def _patent_normals(points, tangents, fallback):
-    """The source's rule: the first ring vertex points along ``unit(OP x L)``.
+def _require_gentle_twist(lines, rate):
+    """Raise :class:`InputError` where spreading an end normal's twist (``rate``, (G,)
+    radians per metre) turns neighbouring rings by more than :data:`MAX_TWIST_STEP`."""
+    g = lines.groups
+    is_step = np.ones(g.size, bool)
+    is_step[g.last] = g.closed
+    twist = np.abs(g.spread(rate)) * lines.segment_lengths
+    bad = is_step & (twist > MAX_TWIST_STEP)
+    if bad.any():
+        i = int(np.argmax(bad))
+        local = i - int(g.first[g.index[i]])
+        raise InputError(f"meeting it twists the rings by {np.degrees(twist[i]):.1f} degrees "
+                         f"between path points {local} and {local + 1}, which would pinch the "
+                         f"tube (at most {np.degrees(MAX_TWIST_STEP):.1f}); add points to the "
+                         "path there (Path.resample) or leave end_normal out",
+                         key="end_normal", index=local)
 
-    Where ``OP x L`` vanishes (the tangent points at or away from the origin, or P
-    is the origin) the rotation-minimizing normal ``fallback`` is used instead.
+
+def _patent_normals(lines, tangents, transported, rows):
+    """The source's rule at ``rows`` (whole open paths): the first ring vertex points
+    along ``unit(OP x L)``, its sign chosen so the frame is continuous.
+
+    The rule's normal is measured against the ``transported`` (rotation-minimizing)
+    one in each ring's plane; a step of more than 90 degrees against it is the rule's
+    sign flip and is taken back. Raises :class:`InputError` where the rule is
+    undefined (OP parallel to the tangent) or turns a ring by more than
+    :data:`MAX_TWIST_STEP` against the transported frame in one step.
     """
-    normals = cross(points, tangents, 0)
-    bad = norm(normals, 0) <= 1e-9 * np.maximum(norm(points, 0), 1.0)
-    return np.where(bad, fallback, unit(normals, 0))
+    g = lines.groups
+    points, t, n = lines.xyz, tangents, transported
+    raw = cross(points, t, 0)
+    size = norm(raw, 0)
+    undefined = rows & (size <= 1e-9 * np.maximum(norm(points, 0), 1.0))
+    if undefined.any():
+        i = int(np.argmax(undefined))
+        local = i - int(g.first[g.index[i]])
+        raise InputError(f"frame='patent' is undefined at path point {local} "
+                         f"({points[:, i].tolist()}): the path there points at or away from "
+                         "the origin, so OP x L vanishes; use frame='rmf' or move the path "
+                         "off the origin's line", key="frame", index=local)
+    raw = np.divide(raw, size, out=np.zeros_like(raw), where=size > 0)
+    psi = np.arctan2(dot(raw, cross(t, n, 0), 0), dot(raw, n, 0))
+    step = g.following(psi) - psi
+    step -= np.pi * np.round(step / np.pi)                # a half turn is the rule's sign flip
+    is_step = rows.copy()
+    is_step[g.last] = False
+    twisted = is_step & (np.abs(step) > MAX_TWIST_STEP)
+    if twisted.any():
+        i = int(np.argmax(twisted))
+        local = i - int(g.first[g.index[i]])
+        raise InputError(f"frame='patent' turns the rings by {np.degrees(abs(step[i])):.1f} "
+                         f"degrees between path points {local} and {local + 1} (the path "
+                         "passes close to the origin's line), which would pinch the tube; "
+                         "use frame='rmf' or sample the path more finely there",
+                         key="frame", index=local)
+    angle = g.spread(psi[g.first]) + g.exclusive_cumsum(np.where(is_step, step, 0.0))
+    b = cross(t, n, 0)
+    return (np.cos(angle) * n + np.sin(angle) * b)[:, rows]

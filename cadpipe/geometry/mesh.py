@@ -61,6 +61,28 @@ def connected_labels(count, a, b):
     return connected_components(graph, directed=False)[1]
 
 
+def merge_tables(tables):
+    """The distinct entries of several label tables as one, in first-seen order.
+
+    Parameters
+    ----------
+    tables : sequence of sequences of hashable
+        Each mesh's (or part's) own labels: part names, ``(name, colour)`` pairs.
+
+    Returns
+    -------
+    merged : tuple
+        Every distinct entry once.
+    rows : list of (len(table),) int32 arrays
+        For each table, the row of ``merged`` each of its entries went to: relabel
+        faces with ``rows[k][labels]``.
+    """
+    index = {}
+    rows = [np.array([index.setdefault(k, len(index)) for k in t], np.int32).reshape(-1)
+            for t in tables]
+    return tuple(index), rows
+
+
 def _frozen(arr, dtype):
     arr = np.ascontiguousarray(arr, dtype=dtype)
     arr.flags.writeable = False
@@ -328,9 +350,9 @@ class Mesh:
     # -- transforms -----------------------------------------------------------
     def transformed(self, matrix):
         """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors)."""
-        matrix = np.asarray(matrix, dtype=np.float64)
-        if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {matrix.shape}")
+        from cadpipe.solids.transform import as_matrix
+
+        matrix = as_matrix(matrix)
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
         return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
@@ -342,15 +364,10 @@ class Mesh:
         meshes = list(meshes)
         if not meshes:
             raise InputError("concatenate: expected at least one mesh")
-        names, index = [], {}
         offsets = np.cumsum([0] + [len(m.vertices) for m in meshes[:-1]])
-        face_parts = []
-        for i, m in enumerate(meshes):
-            own = m.part_names or (f"part{i}",)
-            ids = np.array([index.setdefault(n, len(index)) for n in own], np.int32)
-            names = list(index)
-            fp = m.face_part if m.face_part is not None else np.zeros(len(m.faces), np.int32)
-            face_parts.append(ids[fp])
+        names, rows = merge_tables([m.part_names or (f"part{i}",) for i, m in enumerate(meshes)])
+        face_parts = [r[m.face_part if m.face_part is not None else np.zeros(len(m.faces), int)]
+                      for m, r in zip(meshes, rows)]
         return Mesh(np.concatenate([m.vertices for m in meshes]),
                     np.concatenate([m.faces + o for m, o in zip(meshes, offsets)]),
                     face_part=np.concatenate(face_parts), part_names=names)

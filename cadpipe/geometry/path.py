@@ -263,12 +263,21 @@ class Path:
 
     def transformed(self, matrix):
         """The path moved by a 4x4 homogeneous matrix."""
-        m = np.asarray(matrix, dtype=np.float64)
-        if m.shape != (4, 4) or not np.isfinite(m).all():
-            raise InputError(f"transform: expected a finite 4x4 matrix, got shape {m.shape}")
+        from cadpipe.solids.transform import as_matrix
+
+        m = as_matrix(matrix)
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
+    @classmethod
+    def from_trajectory(cls, robot, configurations, frame, step, base=None):
+        """The path of a robot ``frame``'s origin over a joint trajectory, sampled so
+        the polyline follows the motion within ``step / 2``; see
+        :func:`cadpipe.collision.trajectory.trajectory_points`."""
+        from cadpipe.collision.trajectory import path_from_trajectory
+
+        return path_from_trajectory(robot, configurations, frame, step, base)
+
     @classmethod
     def spline(cls, points, step=None, *, tolerance=None, closed=False):
         """Fit a cubic spline through ``points`` and discretize it.

@@ -6,7 +6,9 @@ pieces a splice needs (rings, frames) are public, so a transition between two
 pipes is built from the same rings the pipes themselves use.
 """
 
+import dataclasses
 import warnings
+from dataclasses import KW_ONLY, dataclass
 from functools import cached_property, partial
 
 import numpy as np
@@ -35,46 +37,65 @@ def sides_for_tolerance(radius, tolerance):
     return max(3, int(np.ceil(np.pi / np.arccos(max(ratio, -1.0)) - 1e-9)))
 
 
+def _frozen(values):
+    out = np.array(values, dtype=np.float64)
+    out.flags.writeable = False
+    return out
+
+
 def envelope_factor(sides):
     """Circumradius over inradius of a regular polygon: ``1 / cos(pi / sides)``."""
     return 1.0 / np.cos(np.pi / sides)
 
 
+@dataclass(frozen=True, eq=False, repr=False)
 class Pipe:
-    """A tube of regular ``sides``-gon rings along a path.
+    """A tube of regular ``sides``-gon rings along a path: an immutable value.
+
+    Change a setting with :meth:`replace` (or :func:`dataclasses.replace`); every
+    derived array (rings, frames, checks) is computed once from the settings, which
+    cannot be set, so it never goes stale.
 
     Parameters
     ----------
     path : Path or (N, 3) array_like
+        The tube's axis, in metres.
     radius : float or (N,) array_like
-        Tube radius, or one per path point.
+        Tube radius, or one per path point (read back as :attr:`radii`).
     sides : int, optional
         Vertices per ring (3 to 4096). Chosen from ``tolerance`` when omitted (16 when
-        neither is given).
+        neither is given); a ``sides`` given wins over ``tolerance``.
     caps : {"flat", "round"}
         End caps of an open path; a closed path needs none.
     envelope : bool
         False: ring vertices on the circle (the polygon lies inside the round tube).
-        True: circumscribe it (circumradius ``r / cos(pi/sides)``), so the mesh
-        encloses the round tube, as a safety envelope must.
+        True: a conservative safety envelope: the solid contains every ball of radius
+        ``r(s)`` centred on the path (``r`` interpolated linearly between points),
+        through tapers, corners and caps (a flat cap then lies ``r`` beyond the end).
     tolerance : float, optional
         Chordal tolerance used to choose ``sides``.
     frame : {"rmf", "patent"}
-        Rotation-minimizing frames (default) or the source's ``OP x L`` rule.
+        Rotation-minimizing frames (default; no twist along a straight segment) or the
+        source's ``OP x L`` rule (kept continuous; refused where ``OP`` is parallel to
+        the path).
     normal : (3,) array_like, optional
         Direction of the first ring's vertex 0.
     end_normal : (3,) array_like, optional
         Direction the last ring's vertex 0 must take (up to the ring's symmetry, see
-        :attr:`seam_shift`), e.g. to meet a flange; the twist is spread evenly.
+        :attr:`seam_shift`), e.g. to meet a flange; the twist is spread evenly. Open
+        paths only.
     corners : {"miter", "round"}
-        Polyline corners as miter joints (full radius through the bend), or rounded
-        with arcs of ``bend_radius``.
+        Polyline corners as miter joints (the rings meet in the bisector plane), or
+        ball joints: the outside of each corner is the sphere of the corner's radius
+        about the corner point, so the corner point keeps the full radius and no miter
+        tip sticks out.
     bend_radius : float, optional
-        Fillet radius for ``corners="round"`` (default: twice the largest radius).
+        Deprecated: rounds the path itself with arcs of this radius (the pipe then
+        follows :meth:`Path.fillet`'s path); pass ``path.fillet(bend_radius)[0]``.
     miter_limit : float
         Largest allowed stretch ``1/cos(turn/2)`` of a mitered ring (default 4, as SVG).
     cap_segments : int, optional
-        Latitude steps of a round cap (default ``max(2, sides // 4)``).
+        Latitude steps of a round cap or ball joint (default ``max(2, sides // 4)``).
     strict : bool
         False (default): where the tube would overlap itself (a fold, a return, a
         corner beyond ``miter_limit``), :meth:`mesh` builds the swept solid there, the
@@ -86,67 +107,106 @@ class Pipe:
         ``strict=True``.
     """
 
-    def __init__(self, path, radius, sides=None, *, caps="flat", envelope=False, tolerance=None,
-                 frame="rmf", normal=None, end_normal=None, corners="miter", bend_radius=None,
-                 miter_limit=4.0,
-                 cap_segments=None, strict=False, repair=None):
-        source = path if isinstance(path, Path) else Path(path)
-        radii = as_positive(radius, "radius", count=len(source))
-        self.caps = as_choice(caps, "caps", CAP_STYLES)
-        self.frame = as_choice(frame, "frame", FRAME_MODES)
-        self.corners = as_choice(corners, "corners", CORNER_STYLES)
-        self.envelope = bool(envelope)
-        if repair is not None:
+    path: Path
+    radius: float | np.ndarray
+    sides: int | None = None
+    _: KW_ONLY
+    caps: str = "flat"
+    envelope: bool = False
+    tolerance: float | None = None
+    frame: str = "rmf"
+    normal: tuple[float, float, float] | None = None
+    end_normal: tuple[float, float, float] | None = None
+    corners: str = "miter"
+    bend_radius: float | None = None
+    miter_limit: float = 4.0
+    cap_segments: int | None = None
+    strict: bool = False
+    repair: bool | None = None
+
+    def __post_init__(self):
+        set_ = partial(object.__setattr__, self)
+        source = self.path if isinstance(self.path, Path) else Path(self.path)
+        radius = as_positive(self.radius, "radius", count=len(source))
+        set_("caps", as_choice(self.caps, "caps", CAP_STYLES))
+        set_("frame", as_choice(self.frame, "frame", FRAME_MODES))
+        set_("corners", as_choice(self.corners, "corners", CORNER_STYLES))
+        set_("envelope", bool(self.envelope))
+        if self.repair is not None:
             warnings.warn("Pipe(repair=...) is deprecated: overlaps are merged by default; "
-                          "pass strict=True to refuse them", DeprecationWarning, stacklevel=2)
-            strict = not repair
-        self.strict = bool(strict)
-        self.normal = normal
-        self.end_normal = end_normal
-        self.miter_limit = float(as_positive(miter_limit, "miter_limit"))
-        if self.miter_limit < 1.0:
-            raise InputError(f"miter_limit: must be >= 1, got {miter_limit}")
+                          "pass strict=True to refuse them", DeprecationWarning, stacklevel=3)
+            set_("strict", not self.repair)
+            set_("repair", None)
+        set_("strict", bool(self.strict))
+        for name in ("normal", "end_normal"):
+            value = getattr(self, name)
+            set_(name, None if value is None else tuple(as_direction(value, name).tolist()))
+        if self.end_normal is not None and source.closed:
+            raise InputError("a closed path has no end: its last ring meets its first; "
+                             "give only normal", key="end_normal")
+        miter_limit = float(as_positive(self.miter_limit, "miter_limit"))
+        if miter_limit < 1.0:
+            raise InputError(f"must be >= 1, got {self.miter_limit}", key="miter_limit")
+        set_("miter_limit", miter_limit)
+        derived = self.sides is None and self.tolerance is not None
+        set_("_sides_from_tolerance", derived)
+        if self.tolerance is not None:
+            set_("tolerance", float(as_positive(self.tolerance, "tolerance")))
+        sides = self.sides
         if sides is None:
-            if tolerance is None:
-                sides = 16
-            else:
-                tol = float(as_positive(tolerance, "tolerance"))
-                sides = sides_for_tolerance(radii.max(), tol)
-                if sides > MAX_SIDES:
-                    raise InputError(f"tolerance: {tol:g} needs {sides} sides, more than "
-                                     f"{MAX_SIDES}; use a larger tolerance")
-        self.sides = as_int(sides, "sides", low=3, high=MAX_SIDES)
-        self.cap_segments = as_int(max(2, self.sides // 4) if cap_segments is None
-                                   else cap_segments, "cap_segments", low=1, high=MAX_SIDES)
-        radii = np.broadcast_to(radii, (len(source),))
+            sides = 16 if self.tolerance is None else \
+                sides_for_tolerance(radius.max(), self.tolerance)
+            if sides > MAX_SIDES:
+                raise InputError(f"{self.tolerance:g} needs {sides} sides, more than "
+                                 f"{MAX_SIDES}; use a larger tolerance", key="tolerance")
+        set_("sides", as_int(sides, "sides", low=3, high=MAX_SIDES))
+        if self.cap_segments is not None:
+            set_("cap_segments", as_int(self.cap_segments, "cap_segments", low=1,
+                                        high=MAX_SIDES))
+        radii = np.broadcast_to(radius, (len(source),))
         if float(radii.min()) <= source._tolerance:
-            raise InputError(f"radius: {radii.min():g} is too small for this path, whose "
-                             f"points closer than {source._tolerance:g} count as one; use a "
-                             "larger radius")
+            raise InputError(f"{radii.min():g} is too small for this path, whose points "
+                             f"closer than {source._tolerance:g} count as one; use a larger "
+                             "radius", key="radius")
+        set_("_given_path", source)
         if self.corners == "round":
-            bend = 2.0 * float(radii.max()) if bend_radius is None else bend_radius
-            self.bend_radius = float(as_positive(bend, "bend_radius"))
+            bend = 2.0 * float(radii.max()) if self.bend_radius is None else self.bend_radius
+            set_("bend_radius", float(as_positive(bend, "bend_radius")))
             radii = radii[source.fillet_sources(self.bend_radius)]
             source = source.filleted(self.bend_radius)
         else:
-            self.bend_radius = None
-        self._settings = dict(sides=self.sides, caps=self.caps, envelope=self.envelope,
-                              frame=self.frame, normal=normal, end_normal=end_normal,
-                              miter_limit=self.miter_limit, cap_segments=self.cap_segments,
-                              strict=self.strict)
-        self.path = source
-        self.radii = np.array(radii, dtype=np.float64)
-        self.radii.flags.writeable = False
+            set_("bend_radius", None)
+        set_("path", source)
+        set_("radius", _frozen(radii) if radius.ndim else float(radius))
+
+    def replace(self, **changes) -> "Pipe":
+        """This pipe with some settings changed (a ``sides`` that came from ``tolerance``
+        is chosen again unless given)."""
+        if self._sides_from_tolerance and "sides" not in changes:
+            changes["sides"] = None
+        if self.corners == "round" and "path" not in changes:
+            changes["path"] = self._given_path
+        return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return (f"<cadpipe.Pipe {self.sides} sides, {len(self.path)} rings, "
                 f"radius {self.radii.min():.6g}..{self.radii.max():.6g}>")
 
+    @cached_property
+    def radii(self) -> np.ndarray:
+        """(N,) read-only tube radius at each path point."""
+        return _frozen(np.broadcast_to(self.radius, (len(self.path),)))
+
+    @cached_property
+    def cap_steps(self) -> int:
+        """Latitude steps of a round cap or ball joint: ``cap_segments`` or its default."""
+        return max(2, self.sides // 4) if self.cap_segments is None else self.cap_segments
+
     def trimmed(self, start=0.0, end=0.0):
         """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
         path = self.path.trimmed(start, end)
         radii = np.interp(start + path.arc_length, self.path.arc_length, self.radii)
-        return Pipe(path, radii, **self._settings)
+        return self.replace(path=path, radius=radii)
 
     @property
     def closed(self):
@@ -466,14 +526,15 @@ def tubes_of(pipes):
                  [p.sides for p in pipes], [p.miter_limit for p in pipes],
                  patent=[p.frame == "patent" for p in pipes],
                  normals=np.array([as_direction(p.normal, "normal") for p in pipes]),
-                 end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]))
+                 end_normals=np.array([as_direction(p.end_normal, "end_normal") for p in pipes]),
+                 gentle=True)
 
 
 def cap_axes(tubes, row, sign, pipe):
     """A round cap's latitude rings past the end ring at ``row`` (outward from the
     tube, along ``sign`` times the tangent) as ring axes and centres (see
     :func:`~cadpipe.geometry.rings.ring_basis`), and its pole."""
-    m = pipe.cap_segments
+    m = pipe.cap_steps
     lat = (np.pi / 2) * np.arange(1, m) / m
     scale = 1.0 / np.cos(np.pi / (4 * m)) if pipe.envelope else 1.0
     centre = tubes.lines.xyz[:, row]

@@ -37,18 +37,19 @@ class Tubes:
         Distance of ring vertices from the axis (before miter stretch).
     sides : (G,) array of int
     miter_limit : (G,) array
-    patent, normals, end_normals :
+    patent, normals, end_normals, gentle :
         Frame settings per tube, as :func:`cadpipe.geometry.frames.frames` takes them.
     """
 
     def __init__(self, lines, ring_radii, sides, miter_limit, *, patent=False, normals=None,
-                 end_normals=None):
+                 end_normals=None, gentle=False):
         self.lines = lines
         self.groups = lines.groups
         self.ring_radii = ring_radii
         self.sides = np.asarray(sides, dtype=np.int64)
         self.miter_limit = np.asarray(miter_limit, dtype=np.float64)
-        self._frame_settings = dict(patent=patent, normals=normals, end_normals=end_normals)
+        self._frame_settings = dict(patent=patent, normals=normals, end_normals=end_normals,
+                                    gentle=gentle)
 
     @cached_property
     def _frames(self):

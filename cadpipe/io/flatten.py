@@ -52,13 +52,8 @@ def flatten(scene):
     pieces = [labelled(scene, part, world=True) for part in scene.parts]
     if len(pieces) == 1:
         return pieces[0]
-    color_of = {}
-    for piece in pieces:
-        for name, rgb in zip(piece.names, piece.colors):
-            color_of.setdefault(name, rgb)
-    index = {name: i for i, name in enumerate(color_of)}
-    offsets = np.cumsum([0] + [len(p.mesh.vertices) for p in pieces[:-1]])
-    mesh = Mesh(np.concatenate([p.mesh.vertices for p in pieces]),
-                np.concatenate([p.mesh.faces + o for p, o in zip(pieces, offsets)]))
-    labels = np.concatenate([np.array([index[n] for n in p.names])[p.labels] for p in pieces])
-    return Painted(mesh, labels, tuple(color_of), np.array(list(color_of.values())))
+    mesh = Mesh.concatenate([p.mesh.with_parts(p.names, p.labels) for p in pieces])
+    colors = np.empty((len(mesh.part_names), 3))
+    for piece in reversed(pieces):                 # the first part's colour for a name wins
+        colors[[mesh.part_names.index(n) for n in piece.names]] = piece.colors
+    return Painted(mesh, mesh.face_part, mesh.part_names, colors)

@@ -19,6 +19,7 @@ from typing import NamedTuple
 import numpy as np
 
 from cadpipe.errors import InputError
+from cadpipe.geometry.ragged import Groups
 
 DEFAULT_CREASE_ANGLE = 35.0
 
@@ -105,9 +106,9 @@ def shading_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
     # corners of one crease vertex are now contiguous: pair each with all of its group
     _, start, size = np.unique(corner_vertex[corners], return_index=True, return_counts=True)
     group_start, group_size = np.repeat(start, size), np.repeat(size, size)
-    first = np.repeat(np.arange(len(corners)), group_size)
-    offset = np.arange(len(first)) - np.repeat(np.cumsum(group_size) - group_size, group_size)
-    second = np.repeat(group_start, group_size) + offset
+    runs = Groups(group_size)
+    first = runs.index
+    second = np.repeat(group_start, group_size) + runs.local()
     normal_of = face_normals[:, corners % n_faces].T             # (C, 3) face normal per corner
     near = (np.einsum("ij,ij->i", normal_of[first], normal_of[second])
             >= np.cos(np.radians(angle)) - 1e-6)

@@ -44,8 +44,8 @@ def junction(ctx, *, pipes: list, wall: Number, ends: str | list = "open",
     """Hollow pipes joined into one part; each entry of ``pipes`` is a ``pipe`` table
     whose ``wall``, ``ends``, ``sides`` and ``caps`` default to the junction's."""
     as_positive(wall, "wall")
-    return Junction(_pipe_tables(ctx, pipes, {"wall": wall, "ends": ends, "sides": sides,
-                                              "caps": caps}))
+    return Junction(*_pipe_tables(ctx, pipes, {"wall": wall, "ends": ends, "sides": sides,
+                                               "caps": caps}))
 
 
 def chain(ctx, *, pipes: list, transition: str = "lcm", closed: bool = False,
@@ -62,7 +62,7 @@ def chain(ctx, *, pipes: list, transition: str = "lcm", closed: bool = False,
         if ends != "open":
             raise InputError("ends: only a hollow chain has open or closed ends; give wall too")
         return splice(*tubes, transition=transition, closed=closed)
-    return HollowChain(tubes, wall, ends, transition, closed)
+    return HollowChain(*tubes, wall=wall, ends=ends, transition=transition, closed=closed)
 
 
 def box(ctx, *, size: Number | list, center: bool = True):

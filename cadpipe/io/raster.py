@@ -12,6 +12,8 @@ triangle per pixel, flat shading is one lookup.
 
 import numpy as np
 
+from cadpipe.geometry.ragged import Groups
+
 #: candidate pixels handled per batch (bounds the temporary arrays to ~ 100 MB, and
 #: keeps offsets within a batch exact in float32)
 BATCH = 1 << 21
@@ -66,9 +68,9 @@ def rasterize(screen, width, height):
     box_width, box_rows = span[keep, 0], span[keep, 1]
     band_rows = np.maximum(BATCH // box_width, 1)
     bands = -(-box_rows // band_rows)
-    box = np.repeat(np.arange(len(keep)), bands)                 # the box of each band
-    first_row = (np.arange(len(box)) - np.repeat(np.cumsum(bands) - bands, bands)) \
-        * band_rows[box]
+    runs = Groups(bands)
+    box = runs.index                                            # the box of each band
+    first_row = runs.local() * band_rows[box]
     rows = np.minimum(band_rows[box], box_rows[box] - first_row)
     planes = planes[:, box]
     planes[[2, 5, 8]] += planes[[1, 4, 7]] * first_row          # v counted from the band's top

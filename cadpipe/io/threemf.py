@@ -27,6 +27,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 from cadpipe.errors import InputError
+from cadpipe.geometry.mesh import merge_tables
 from cadpipe.io.scene import as_scene
 from cadpipe.io.files import atomic_path
 from cadpipe.io.flatten import labelled
@@ -96,11 +97,9 @@ def _model_xml(scene, unit, parts):
     yield (f'<?xml version="1.0" encoding="UTF-8"?>\n<model unit="{unit}" xml:lang="en-US" '
            f'xmlns="{_CORE}">\n<metadata name="Title">{_escape(scene.name)}</metadata>\n'
            '<metadata name="Application">cadpipe</metadata>\n<resources>\n').encode()
-    materials = {}                                  # (name, colour) -> base index
-    indices = []
-    for _, painted in parts:
-        keys = [(name, _hex(rgb)) for name, rgb in zip(painted.names, painted.colors)]
-        indices.append(np.array([materials.setdefault(k, len(materials)) for k in keys]))
+    materials, indices = merge_tables([[(name, _hex(rgb)) for name, rgb in
+                                         zip(painted.names, painted.colors)]
+                                        for _, painted in parts])   # (name, colour) -> base
     yield b'<basematerials id="1">\n' + "".join(
         f'<base name={quoteattr(name)} displaycolor="{color}"/>\n'
         for name, color in materials).encode() + b"</basematerials>\n"

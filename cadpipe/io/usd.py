@@ -44,10 +44,14 @@ def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE):
         Degrees: faces meeting at a sharper angle shade with a hard edge
         (0 faceted, 180 smooth).
     """
+    save_stage(build_stage(as_scene(obj), crease_angle=crease_angle), path)
+
+
+def save_stage(stage, path):
+    """Write an in-memory stage to ``path`` (.usda, .usdc or .usdz), atomically."""
     from pxr import Sdf, UsdUtils
 
     kind = suffix_of(path)
-    stage = build_stage(as_scene(obj), crease_angle=crease_angle)
     with atomic_path(path) as tmp:
         if kind != "usdz":
             if not stage.GetRootLayer().Export(str(tmp)):

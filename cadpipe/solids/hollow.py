@@ -9,7 +9,10 @@ part; a :class:`HollowChain` is spliced pipes with a spliced bore. Bores of open
 ends run a little past the pipe, so the cut leaves no skin.
 """
 
-from functools import cached_property
+import dataclasses
+import warnings
+from dataclasses import dataclass
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -19,6 +22,7 @@ from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe
+from cadpipe.geometry.splice import TRANSITIONS
 
 END_STYLES = ("open", "closed")
 
@@ -59,10 +63,7 @@ def bore(pipe, wall, start="open", end="open"):
         tail = [path.points[-1] + extend[end] * path.directions[-1]] if extend[end] else []
         path = Path(np.vstack([*head, path.points, *tail]))
         radii = np.concatenate([radii[:len(head)], radii, radii[len(radii) - len(tail):]])
-    inner = Pipe(path, radii, pipe.sides, caps=pipe.caps, envelope=pipe.envelope,
-                 frame=pipe.frame, normal=pipe.normals[0], end_normal=pipe.end_normal,
-                 miter_limit=pipe.miter_limit, cap_segments=pipe.cap_segments,
-                 strict=pipe.strict)
+    inner = pipe.replace(path=path, radius=radii, normal=pipe.normals[0])
     if path.closed or not (trim[start] or trim[end]):
         return inner
     if trim[start] + trim[end] >= path.length:
@@ -80,8 +81,24 @@ class Hollow:
         return carve(bodies, bores, self.attributes["kind"], attributes=self.attributes)
 
 
+def _members(args, kind, name, keyword):
+    """The members of a Junction or HollowChain: given as arguments (``splice``'s
+    convention), or, deprecated, as one list."""
+    if keyword is not None:
+        return tuple(keyword)
+    if len(args) == 1 and not isinstance(args[0], kind) and hasattr(args[0], "__iter__"):
+        warnings.warn(f"{name}([...]) with a list is deprecated: pass the pipes as arguments, "
+                      f"{name}(*pipes, ...), as cadpipe.splice(*pipes) takes them",
+                      DeprecationWarning, stacklevel=3)
+        return tuple(args[0])
+    return tuple(args)
+
+
+@dataclass(frozen=True, eq=False)
 class HollowPipe(Hollow):
     """A pipe with a wall of thickness ``wall``: its outer solid minus its bore.
+
+    An immutable value; change it with :meth:`replace`.
 
     Parameters
     ----------
@@ -97,12 +114,20 @@ class HollowPipe(Hollow):
         its own round cap inside a round one.
     """
 
-    def __init__(self, pipe, wall, ends="open"):
-        if not isinstance(pipe, Pipe):
-            raise InputError(f"pipe: expected a cadpipe.Pipe, got {type(pipe).__name__}")
-        self.pipe = pipe
-        self.wall = _wall(wall, [pipe])
-        self.ends = _ends(ends)
+    pipe: Pipe
+    wall: float
+    ends: tuple[str, str] | str = "open"
+
+    def __post_init__(self):
+        if not isinstance(self.pipe, Pipe):
+            raise InputError(f"expected a cadpipe.Pipe, got {type(self.pipe).__name__}",
+                             key="pipe")
+        object.__setattr__(self, "wall", _wall(self.wall, [self.pipe]))
+        object.__setattr__(self, "ends", _ends(self.ends))
+
+    def replace(self, **changes) -> "HollowPipe":
+        """This hollow pipe with some settings changed."""
+        return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         ends = "/".join(self.ends)
@@ -125,19 +150,28 @@ class HollowPipe(Hollow):
                                       "HollowPipe.attributes")
 
 
+@dataclass(frozen=True, eq=False, init=False)
 class Junction(Hollow):
     """Hollow pipes joined into one part (a T, a Y, any branching).
 
-    The union of every outer solid minus the union of every bore, so each bore
-    runs through the others' walls and the channels connect. Give an end that
-    meets another pipe ``ends="open"`` so its bore reaches into that pipe's bore.
+    ``Junction(*hollow_pipes)``: the union of every outer solid minus the union of
+    every bore, so each bore runs through the others' walls and the channels
+    connect. Give an end that meets another pipe ``ends="open"`` so its bore reaches
+    into that pipe's bore. (A single list, ``Junction([a, b])``, still works for this
+    release, with a :class:`DeprecationWarning`.)
     """
 
-    def __init__(self, pipes):
-        pipes = tuple(pipes)
-        if not pipes or not all(isinstance(p, HollowPipe) for p in pipes):
-            raise InputError("pipes: expected one or more cadpipe.HollowPipe")
-        self.pipes = pipes
+    pipes: tuple[HollowPipe, ...]
+
+    def __init__(self, *hollow_pipes: HollowPipe, pipes=None):
+        members = _members(hollow_pipes, HollowPipe, "Junction", pipes)
+        if not members or not all(isinstance(p, HollowPipe) for p in members):
+            raise InputError("expected one or more cadpipe.HollowPipe", key="pipes")
+        object.__setattr__(self, "pipes", members)
+
+    def replace(self, **changes) -> "Junction":
+        """This junction with some settings changed (``pipes=`` a sequence)."""
+        return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return f"<cadpipe.Junction of {len(self.pipes)} hollow pipes>"
@@ -155,25 +189,49 @@ class Junction(Hollow):
                                       "Junction.attributes")
 
 
+@dataclass(frozen=True, eq=False, init=False)
 class HollowChain(Hollow):
     """Pipes spliced into one chain (:func:`cadpipe.splice`) with a wall ``wall`` thick.
 
-    The outer chain minus the chain of bores. The pipes first give up room for the
-    transitions the way :func:`~cadpipe.splice` does, so both chains splice between
-    the same end points and tangents and each bore transition runs inside its outer
-    one, ``wall`` in from it. ``ends`` applies to the chain's two ends; a closed chain
-    has none.
+    ``HollowChain(*pipes, wall=..., ends=..., transition=..., closed=...)``, the
+    pipes as :func:`~cadpipe.splice` takes them. The outer chain minus the chain of
+    bores. The pipes first give up room for the transitions the way
+    :func:`~cadpipe.splice` does, so both chains splice between the same end points
+    and tangents and each bore transition runs inside its outer one, ``wall`` in
+    from it. ``ends`` applies to the chain's two ends; a closed chain has none. (The
+    0.1 form ``HollowChain([p, q], wall, ...)`` still works for this release, with a
+    :class:`DeprecationWarning`.)
     """
 
-    def __init__(self, pipes, wall, ends="open", transition="lcm", closed=False):
-        pipes = tuple(pipes)
-        if not pipes or not all(isinstance(p, Pipe) for p in pipes):
-            raise InputError("pipes: expected one or more cadpipe.Pipe")
-        self.pipes = pipes
-        self.wall = _wall(wall, pipes)
-        self.ends = _ends(ends)
-        self.transition = transition
-        self.closed = bool(closed)
+    pipes: tuple[Pipe, ...]
+    wall: float
+    ends: tuple[str, str] | str = "open"
+    transition: str = "lcm"
+    closed: bool = False
+
+    def __init__(self, *args, pipes=None, wall=None, ends="open", transition="lcm",
+                 closed=False):
+        if pipes is None and args and not isinstance(args[0], Pipe) \
+                and hasattr(args[0], "__iter__"):
+            old = dict(zip(("wall", "ends", "transition", "closed"), args[1:]))
+            args = args[:1]
+            wall, ends = old.get("wall", wall), old.get("ends", ends)
+            transition, closed = old.get("transition", transition), old.get("closed", closed)
+        members = _members(args, Pipe, "HollowChain", pipes)
+        if not members or not all(isinstance(p, Pipe) for p in members):
+            raise InputError("expected one or more cadpipe.Pipe", key="pipes")
+        if wall is None:
+            raise InputError("give the wall thickness: HollowChain(*pipes, wall=...)", key="wall")
+        set_ = partial(object.__setattr__, self)
+        set_("pipes", members)
+        set_("wall", _wall(wall, members))
+        set_("ends", _ends(ends))
+        set_("transition", as_choice(transition, "transition", TRANSITIONS))
+        set_("closed", bool(closed))
+
+    def replace(self, **changes) -> "HollowChain":
+        """This chain with some settings changed (``pipes=`` a sequence)."""
+        return dataclasses.replace(self, **changes)
 
     def __repr__(self):
         return f"<cadpipe.HollowChain of {len(self.pipes)} pipes, wall {self.wall:g}>"

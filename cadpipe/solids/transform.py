@@ -5,19 +5,50 @@ import numpy as np
 from cadpipe.errors import InputError
 
 
-def as_matrix(value, name="transform"):
-    """``value`` as a finite 4x4 float64 matrix whose last row is ``0 0 0 1``."""
+def as_matrix(value, key="transform", *, part=None, stack=False, rigid=False):
+    """``value`` as finite 4x4 affine placement matrices: the one check of a 4x4 input.
+
+    Parameters
+    ----------
+    value : (4, 4) array_like, or (..., 4, 4) when ``stack``
+    key : str
+        The argument or spec key, named in the error.
+    part : str, optional
+        The part or object it places (the error's ``part``).
+    stack : bool
+        Accept any number of leading axes (one matrix per configuration, say).
+    rigid : bool
+        Also require rotation plus translation only (no scale, shear or mirror).
+
+    Returns
+    -------
+    matrix : (4, 4) or (..., 4, 4) float64
+        A new array; each last row is ``0 0 0 1`` and no matrix is singular.
+
+    Raises
+    ------
+    InputError
+        Naming ``name`` and what is wrong.
+    """
+    def fail(message):
+        return InputError(message, key=key, part=part)
+
     try:
         matrix = np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a 4x4 matrix of numbers, got {value!r}") from None
-    if matrix.shape != (4, 4) or not np.isfinite(matrix).all():
-        raise InputError(f"{name}: expected a finite 4x4 matrix, got shape {matrix.shape}")
-    if not np.allclose(matrix[3], [0, 0, 0, 1]):
-        raise InputError(f"{name}: the last row must be 0 0 0 1 (an affine placement), "
-                         f"got {matrix[3].tolist()}")
-    if abs(np.linalg.det(matrix[:3, :3])) < 1e-12:
-        raise InputError(f"{name}: the matrix flattens space (determinant 0)")
+        raise fail(f"expected a 4x4 matrix of numbers, got {value!r}") from None
+    if matrix.shape[-2:] != (4, 4) or (not stack and matrix.ndim != 2):
+        raise fail(f"expected a finite 4x4 matrix, got shape {matrix.shape}")
+    if not np.isfinite(matrix).all():
+        raise fail("expected a finite 4x4 matrix, got NaN or infinite entries")
+    if not np.allclose(matrix[..., 3, :], [0, 0, 0, 1]):
+        raise fail("the last row must be 0 0 0 1 (an affine placement), got "
+                   f"{matrix[..., 3, :].tolist()}")
+    if rigid and not is_rigid(matrix):
+        raise fail("must be rigid (a rotation and a translation); scale or mirror the mesh "
+                   "itself instead")
+    if (np.abs(np.linalg.det(matrix[..., :3, :3])) < 1e-12).any():
+        raise fail("the matrix flattens space (determinant 0)")
     return matrix
 
 

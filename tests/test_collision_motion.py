@@ -1,0 +1,159 @@
+"""Motion checks between configurations, against dense sampling of the motion."""
+
+from pathlib import Path as FilePath
+
+import numpy as np
+import pytest
+
+from cadpipe import CollisionWorld, InputError, Path, Pipe
+from cadpipe.collision import Box, Robot
+from cadpipe.collision.motion import _Chain
+
+PANDA = FilePath(__file__).parent.parent / "assets" / "robots" / "panda"
+DENSE = 2001
+
+
+def _shift(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = x, y, z
+    return m
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return Robot.from_urdf(PANDA / "panda.urdf", srdf=PANDA / "panda.srdf")
+
+
+@pytest.fixture(scope="module")
+def cell(panda):
+    world = CollisionWorld()
+    world.add_robot(panda)
+    world.add("wall", Box((0.02, 1.2, 1.2)), transform=_shift(0.55, 0.0, 0.5))
+    duct = Pipe(Path([[-0.6, -0.6, 0.3], [-0.2, -0.5, 0.6], [0.3, -0.6, 0.4]]), radius=0.05)
+    world.add("duct", duct)
+    return world
+
+
+def _free_pairs(world, robot, count, rng):
+    """``count`` motions between random configurations free at both ends."""
+    lo, hi = robot.limits
+    found = []
+    while len(found) < count:
+        q = rng.uniform(lo, hi, (2, len(lo)))
+        if not world.check_path(robot.name, q).colliding.any():
+            found.append(q)
+    return found
+
+
+def _dense_first_hit(world, robot, q_a, q_b):
+    t = np.linspace(0.0, 1.0, DENSE)
+    hits = world.check_path(robot.name, q_a + t[:, None] * (q_b - q_a)).colliding
+    return t[np.argmax(hits)] if hits.any() else None
+
+
+@pytest.mark.slow
+def test_free_motions_are_free_at_every_dense_state_and_contacts_are_found(panda, cell):
+    rng = np.random.default_rng(5)
+    outcomes = {"free": 0, "colliding": 0}
+    for q_a, q_b in _free_pairs(cell, panda, 9, rng):
+        result = cell.check_motion(panda.name, q_a, q_b)
+        first = _dense_first_hit(cell, panda, q_a, q_b)
+        if result.free:
+            assert first is None, "a motion certified free collides in between"
+            outcomes["free"] += 1
+            continue
+        outcomes["colliding"] += 1
+        assert result.segment == 0 and 0.0 <= result.time <= 1.0
+        assert result.clearance < result.tolerance
+        # everything before the contact time is proven free: the dense first hit is later
+        if first is not None:
+            assert result.time <= first + 1e-12
+            assert first - result.time < 5.0 / DENSE
+        np.testing.assert_allclose(result.configuration, q_a + result.time * (q_b - q_a))
+        poses = panda.link_poses(result.configuration)
+        a, b = result.pair
+        gap = cell.distance_at(a, b, poses[a], poses.get(b, cell.pose(b)))
+        assert gap < result.tolerance
+    assert outcomes["free"] >= 3 and outcomes["colliding"] >= 3, outcomes
+
+
+def test_a_hand_passing_a_thin_wall_between_free_waypoints_is_caught(panda):
+    world = CollisionWorld()
+    world.add_robot(panda)
+    world.add("sheet", Box((0.004, 0.6, 0.3)), transform=_shift(0.6, 0.0, 0.1))
+    q_a = np.array([0, 0.0, 0, -2.2, 0, 2.2, 0.78, 0.02])
+    q_b = q_a.copy()
+    q_b[1], q_b[3] = 0.7, -1.6             # the hand reaches forward over the sheet's top
+    path = q_a + np.linspace(0, 1, 3)[:, None] * (q_b - q_a)
+    waypoints = world.check_path(panda.name, path[[0, -1]])
+    assert not waypoints.colliding.any()          # both ends are free...
+    first = _dense_first_hit(world, panda, q_a, q_b)
+    assert first is not None                      # ...but the motion crosses the sheet
+    result = world.check_path(panda.name, path, between=True)
+    assert not result.free and result.pair[1] == "sheet"
+    at = result.segment * 0.5 + result.time * 0.5
+    assert at <= first + 1e-12 and first - at < 5.0 / DENSE
+
+
+def test_the_motion_bound_covers_every_vertex_of_every_link(panda):
+    """Dense forward kinematics of each link's vertices never moves a vertex
+    farther than the bound allows, on random segments."""
+    chain = _Chain(panda)
+    rng = np.random.default_rng(8)
+    lo, hi = panda.limits
+    t = np.linspace(0.0, 1.0, 201)
+    for k in range(20):
+        q_a, q_b = rng.uniform(lo, hi, (2, len(lo)))
+        if k % 2:                      # short segments too, where the start lever decides
+            q_b = q_a + 0.05 * (q_b - q_a)
+        v_a, v_b = panda.joint_array(np.stack([q_a, q_b]))
+        frames = panda.all_frame_poses(q_a[None])[0]
+        reach = chain.reach(v_a, v_b, frames, frames[chain.geometry])
+        bound = (reach * np.abs(v_b - v_a)).sum(axis=1)
+        poses = panda.link_pose_array(q_a + t[:, None] * (q_b - q_a))
+        for link, (name, mesh) in enumerate(panda.link_meshes.items()):
+            moved = mesh.vertices @ np.swapaxes(poses[:, link, :3, :3], 1, 2) \
+                + poses[:, link, None, :3, 3]
+            travel = np.linalg.norm(moved - moved[:1], axis=2).max()
+            assert travel <= bound[link] * (1 + 1e-9) + 1e-12, name
+
+
+def test_self_collision_along_a_motion_and_static_start(panda):
+    folded = np.array([-1.726, 1.544, -2.348, -3.057, -1.026, 3.718, -1.363, 0.033])
+    world = CollisionWorld()
+    world.add_robot(panda)
+    assert world.check_path(panda.name, folded[None]).colliding[0]
+    start = panda.default
+    result = world.check_motion(panda.name, start, folded)
+    assert not result.free and result.time < 1.0
+    first = _dense_first_hit(world, panda, start, folded)
+    assert result.time <= first + 1e-12 and first - result.time < 5.0 / DENSE
+    # a start in contact is a contact at time 0
+    at_start = world.check_motion(panda.name, folded, start)
+    assert at_start.time == 0.0 and not at_start.free
+    # standing still where it is free is free, without a single distance query
+    still = world.check_motion(panda.name, start, start)
+    assert still.free and bool(still) is False
+
+
+def test_multi_segment_paths_report_the_segment_and_stop_there(panda, cell):
+    rng = np.random.default_rng(21)
+    motions = _free_pairs(cell, panda, 12, rng)
+    first_bad = next(k for k, (a, b) in enumerate(motions)
+                     if not cell.check_motion(panda.name, a, b).free)
+    path = np.concatenate([motions[k] for k in range(first_bad + 1)])
+    result = cell.check_path(panda.name, path, between=True)
+    assert not result.free
+    # segment 2k runs through motion k; the joins between motions may collide first
+    for segment in range(result.segment):
+        assert cell.check_motion(panda.name, path[segment], path[segment + 1]).free
+    assert result.segment <= 2 * first_bad
+
+
+def test_bad_motion_input(panda, cell):
+    with pytest.raises(InputError, match="at least two"):
+        cell.check_path(panda.name, [panda.default], between=True)
+    with pytest.raises(InputError, match="tolerance"):
+        cell.check_motion(panda.name, panda.default, panda.default, tolerance=0)
+    with pytest.raises(InputError, match="outside its limits"):
+        cell.check_motion(panda.name, panda.default, panda.default + 10)

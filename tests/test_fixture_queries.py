@@ -1,0 +1,149 @@
+"""Fixture queries against brute-force references, and trajectories to pipes and USD."""
+
+from pathlib import Path as FilePath
+
+import numpy as np
+import pytest
+
+from cadpipe import InputError, Path, Pipe
+from cadpipe.collision import Robot
+from cadpipe.collision.fixture import locate
+
+PANDA = FilePath(__file__).parent.parent / "assets" / "robots" / "panda"
+
+
+def _helix(points=300, turns=3.0):
+    t = np.linspace(0.0, 2 * np.pi * turns, points)
+    return np.stack([np.cos(t), np.sin(t), 0.1 * t], axis=1)
+
+
+def _reference(points, centres, radii):
+    """Brute force over every segment: centreline distance, segment, parameter, and
+    the signed distance to the union of round cones (sampled finely along each)."""
+    a, b = centres[:-1], centres[1:]
+    axis = b - a
+    t = np.clip(np.einsum("mki,ki->mk", points[:, None] - a, axis)
+                / np.einsum("ki,ki->k", axis, axis), 0.0, 1.0)
+    d = np.linalg.norm(points[:, None] - (a + t[..., None] * axis), axis=2)
+    seg = np.argmin(d, axis=1)
+    # the round cone is the union of balls along the segment: sample it densely
+    s = np.linspace(0.0, 1.0, 201)
+    balls = (a[:, None] + s[:, None] * axis[:, None]).reshape(-1, 3)
+    ball_r = (radii[:-1, None] + s * (radii[1:] - radii[:-1])[:, None]).ravel()
+    wall = (np.linalg.norm(points[:, None] - balls, axis=2) - ball_r).min(axis=1)
+    return d[np.arange(len(points)), seg], seg, t[np.arange(len(points)), seg], wall
+
+
+@pytest.mark.parametrize("tapered", [False, True])
+def test_locate_matches_brute_force(tapered):
+    centres = _helix(120)
+    radii = np.linspace(0.05, 0.12, len(centres)) if tapered else np.full(len(centres), 0.08)
+    pipe = Pipe(Path(centres), radius=radii) if tapered else Pipe(Path(centres), radius=0.08)
+    ring = pipe.ring_radii
+    rng = np.random.default_rng(3)
+    near = centres[rng.integers(0, len(centres), 1500)] + rng.normal(0, 0.08, (1500, 3))
+    far = rng.uniform([-1.5, -1.5, -0.5], [1.5, 1.5, 2.4], (500, 3))
+    points = np.concatenate([near, far])
+    found = locate(pipe, points)
+    dist, seg, t, wall = _reference(points, centres, ring)
+    np.testing.assert_allclose(np.linalg.norm(points - found.nearest, axis=1), dist,
+                               atol=1e-12)
+    # sampled balls under-cover a cone by a hair: the reference wall is an upper bound
+    assert np.all(found.signed_distance <= wall + 1e-12)
+    assert np.all(found.signed_distance >= wall - 2e-4)
+    assert np.array_equal(found.inside, found.signed_distance <= 0)
+    assert found.inside[:1500].mean() > 0.2 and not found.inside[1500:].all()
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centres, axis=0), axis=1))])
+    expected = arc[seg] + t * (arc[seg + 1] - arc[seg])
+    same = np.abs(found.arc_length - expected) <= 1e-9
+    assert same.mean() > 0.99
+    # elsewhere two stretches of the helix are equally near: a tie, not an error
+    on_found = np.linalg.norm(points - found.nearest, axis=1)
+    np.testing.assert_allclose(on_found[~same], dist[~same], atol=1e-12)
+    np.testing.assert_allclose(found.nearest, centres[found.segment] + (
+        (found.arc_length - arc[found.segment]) / (arc[found.segment + 1] - arc[found.segment])
+    )[:, None] * (centres[found.segment + 1] - centres[found.segment]), atol=1e-12)
+    direction = centres[found.segment + 1] - centres[found.segment]
+    np.testing.assert_allclose(found.tangent, direction / np.linalg.norm(direction, axis=1,
+                                                                          keepdims=True))
+
+
+def test_locate_agrees_with_world_inside_and_moves_with_the_pipe():
+    from cadpipe import CollisionWorld
+
+    pipe = Pipe(Path(_helix(80)), radius=0.1)
+    pose = np.eye(4)
+    pose[:3, 3] = 0.5, -0.2, 1.0
+    world = CollisionWorld()
+    world.add("pipe", pipe, transform=pose)
+    rng = np.random.default_rng(9)
+    points = rng.uniform([-1.0, -1.5, 0.8], [2.0, 1.5, 3.0], (800, 3))
+    found = locate(pipe, points, transform=pose)
+    np.testing.assert_allclose(found.signed_distance,
+                               world.inside("pipe", points).signed_distance, atol=1e-12)
+    with pytest.raises(InputError, match="expected a cadpipe Pipe"):
+        locate(pipe.mesh(), points)
+    with pytest.raises(InputError, match="not finite"):
+        locate(pipe, [[0.0, np.nan, 0.0]])
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return Robot.from_urdf(PANDA / "panda.urdf")
+
+
+WAYPOINTS = np.array([[1.2, -0.3, 0.0, -2.4, 0.0, 2.1, 0.8, 0.02],
+                      [0.3, 0.2, 0.4, -1.9, 0.3, 2.0, 0.8, 0.02],
+                      [0.0, 0.45, 0.0, -1.2, 0.0, 1.65, 0.8, 0.02],
+                      [0.0, 0.45, 0.0, -1.2, 0.0, 1.65, 2.8, 0.02]])
+
+
+def test_trajectory_path_follows_the_motion_within_half_a_step(panda):
+    step = 0.01
+    path = Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=step)
+    t = np.linspace(0.0, 1.0, 3001)
+    dense = np.concatenate([a + t[:, None] * (b - a) for a, b in
+                            zip(WAYPOINTS[:-1], WAYPOINTS[1:])])
+    truth = panda.frame_poses(dense, "panda_hand_tcp")[:, :3, 3]
+    samples = path.points
+    gap = np.min(np.linalg.norm(truth[:, None] - samples[None], axis=2), axis=1)
+    assert gap.max() <= step / 2 + 1e-12
+    # the waypoints' own positions are on the path, in order
+    ends = panda.frame_poses(WAYPOINTS[[0, -1]], "panda_hand_tcp")[:, :3, 3]
+    np.testing.assert_allclose(samples[[0, -1]], ends, atol=1e-12)
+    # a safety pipe around it is one valid solid however the hand turned
+    mesh = Pipe(path, radius=0.05, repair=True).mesh()
+    assert mesh.is_watertight and mesh.volume > 0
+    with pytest.raises(InputError, match="step"):
+        Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=0)
+    with pytest.raises(InputError, match="no such link"):
+        Path.from_trajectory(panda, WAYPOINTS, frame="tool0", step=0.01)
+
+
+def test_trajectory_usd_animates_every_link_with_its_own_op(panda, tmp_path):
+    from pxr import Usd, UsdGeom
+
+    from cadpipe.io.usd_animation import write_trajectory_usd
+
+    target = tmp_path / "motion.usda"
+    frames = write_trajectory_usd(target, panda, WAYPOINTS, times=[0.0, 1.0, 1.5, 3.0],
+                                  fps=10, extras={"pipe": Pipe(Path(_helix(20)), radius=0.1)})
+    assert frames == 31
+    stage = Usd.Stage.Open(str(target))
+    assert stage.GetEndTimeCode() == 30 and stage.GetTimeCodesPerSecond() == 10
+    for link in panda.link_meshes:
+        prim = stage.GetPrimAtPath(f"/panda/{link}")
+        ops = UsdGeom.Xformable(prim).GetOrderedXformOps()
+        assert len(ops) == 1 and len(ops[0].GetTimeSamples()) == 31, link
+    # at 1.5 s the robot is at waypoint 2, the world pose of every link matches FK
+    expected = panda.link_poses(WAYPOINTS[2])
+    for link, pose in expected.items():
+        prim = UsdGeom.Xformable(stage.GetPrimAtPath(f"/panda/{link}"))
+        got = np.array(prim.ComputeLocalToWorldTransform(Usd.TimeCode(15))).T
+        np.testing.assert_allclose(got, pose, atol=1e-9)
+    assert stage.GetPrimAtPath("/panda/pipe").IsValid()
+    with pytest.raises(InputError, match="increasing"):
+        write_trajectory_usd(tmp_path / "bad.usda", panda, WAYPOINTS, times=[0, 1, 1, 2])
+    assert not (tmp_path / "bad.usda").exists()
+    with pytest.raises(InputError, match="usda"):
+        write_trajectory_usd(tmp_path / "bad.stl", panda, WAYPOINTS)
