@@ -16,8 +16,10 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/cadpipe demo -o $(OUT)
 
+# ruff's rule set is in pyproject.toml; slow cases run too, spread over the cores
 test: $(STAMP) chromium
-	$(PY) -m pytest
+	$(VENV)/bin/ruff check cadpipe
+	$(PY) -m pytest -n auto
 
 bench: $(STAMP)
 	for f in benchmarks/bench_*.py; do $(PY) $$f || exit 1; done

@@ -18,10 +18,19 @@ Part 2, pipe vs pipe: two safety pipes at 10,000 random relative poses:
 cadpipe's analytic chains (per pose, batched over all poses, and batched through
 the whole ``check_many`` funnel) against the same pipes' meshes in FCL.
 
-Every figure is the best of ``--repeat`` runs after a warm-up run (the machine is
-shared).
+Part 3, the Panda cell (the URDF and SRDF of ``assets/robots/panda``, 35 allowed
+pairs, 4 obstacles), one state at a time: cadpipe ``set_joints`` + ``check()``
+(and ``first_hit=True``) against MuJoCo (``mj_kinematics`` + ``mj_collision``),
+pybullet (``resetJointState`` + ``performCollisionDetection``), and python-fcl and
+coal loops over the same pairs that stop at the first hit.
+
+Every figure is the median of ``--repeat`` runs, all methods of a part interleaved
+in one process (A B A B ...) after one untimed round: the machine is shared, so
+read the ratios. MuJoCo, pybullet and coal are optional (``pip install
+cadpipe[bench]``); a missing one is skipped with a note.
 
 Run: .venv/bin/python benchmarks/bench_collision.py [--configs N] [--repeat R]
+     [--only panda|arm|pipes]
 """
 
 import argparse
@@ -38,18 +47,18 @@ from cadpipe.collision import Box, Joint, Robot
 from cadpipe.collision.bodies import as_body
 
 
-def best_of(repeat, run):
-    """``(seconds, result)`` of the fastest of ``repeat`` runs of ``run()``, after one
-    untimed run (caches, lazily built trees, the allocator's first growth)."""
-    run()
-    best = None
+def interleaved(runs, repeat):
+    """Median seconds of each of ``runs`` (name -> callable), timed A B A B ... after
+    one untimed round (caches, lazily built trees, JIT compilation); and each run's
+    last result."""
+    results = {name: run() for name, run in runs.items()}
+    times = {name: [] for name in runs}
     for _ in range(repeat):
-        start = time.perf_counter()
-        result = run()
-        seconds = time.perf_counter() - start
-        if best is None or seconds < best[0]:
-            best = (seconds, result)
-    return best
+        for name, run in runs.items():
+            start = time.perf_counter()
+            results[name] = run()
+            times[name].append(time.perf_counter() - start)
+    return {name: float(np.median(t)) for name, t in times.items()}, results
 
 
 def arm():
@@ -119,103 +128,117 @@ def robot_cell(configs, repeat):
             out.append({frozenset(n) for n in names} - allowed)
         return out
 
-    t_call, per_call = best_of(repeat, ours_per_call)
-    t_batch, batch = best_of(repeat, lambda: world.check_path("arm", qs))
-    t_theirs_call, answers = best_of(repeat, lambda: theirs(
-        lambda: (robot.link_pose_array(q)[0] for q in qs)))
-    t_theirs_batch, _ = best_of(repeat, lambda: theirs(lambda: robot.link_pose_array(qs)))
-
+    seconds, results = interleaved({
+        "cadpipe per call": ours_per_call,
+        "trimesh per call": lambda: theirs(lambda: (robot.link_pose_array(q)[0] for q in qs)),
+        "cadpipe batched": lambda: world.check_path("arm", qs),
+        "trimesh batched": lambda: theirs(lambda: robot.link_pose_array(qs))}, repeat)
+    per_call, batch, answers = (results[k] for k in ("cadpipe per call", "cadpipe batched",
+                                                     "trimesh per call"))
     same_batch = sum(pairs_of(batch[c]) == per_call[c] for c in range(configs))
     contained = sum(1 for o in per_call for v in o.values() if v == "containment")
     same = sum(1 for o, t in zip(per_call, answers)
                if {k for k, v in o.items() if v != "containment"} == t)
     print(f"robot cell: 7 links, {len(work.faces)}-triangle workpiece, 3 safety pipes, "
-          f"{configs} configurations (best of {repeat})")
-    print(f"  per call  cadpipe set_joints + check       {configs / t_call:9.0f} configs/s")
-    print(f"            trimesh set_transform + manager  {configs / t_theirs_call:9.0f} configs/s"
-          f"   ratio {t_theirs_call / t_call:5.2f}x")
-    print(f"  batched   cadpipe check_path               {configs / t_batch:9.0f} configs/s")
-    print(f"            trimesh, batched kinematics      {configs / t_theirs_batch:9.0f} configs/s"
-          f"   ratio {t_theirs_batch / t_batch:5.2f}x")
+          f"{configs} configurations (medians of {repeat} interleaved runs)")
+    for kind in ("per call", "batched"):
+        ours, theirs_s = seconds[f"cadpipe {kind}"], seconds[f"trimesh {kind}"]
+        print(f"  {kind:9s} cadpipe {configs / ours:9.0f} configs/s   trimesh's manager "
+              f"{configs / theirs_s:9.0f} configs/s   ratio {theirs_s / ours:5.2f}x")
     print(f"  check_path == check() loop: {same_batch}/{configs} configurations; same colliding "
           f"pairs as trimesh (containment aside): {same}/{configs}; containments only cadpipe "
           f"saw: {contained}")
 
 
 def pipe_pair(poses, repeat):
+    """Two safety pipes, and a pipe against a mesh, at random relative poses: one pose
+    at a time (``set_pose`` + ``check(first_hit=True)``, ``distance``) and batched
+    (``check_many``, the chains' own batched gaps), against FCL on the meshed pipes."""
     a = Pipe(Path.spline([[-1.0, -0.6, 0.0], [0.0, 0.4, 0.1], [1.0, -0.5, 0.0]], step=0.05),
              0.15, sides=32, caps="round")
     b = Pipe(Path.spline([[-0.8, 0.0, -0.3], [0.0, 0.3, 0.0], [0.9, 0.1, 0.2]], step=0.05),
              0.12, sides=32, caps="round")
+    block = Mesh.from_trimesh(trimesh.creation.torus(0.5, 0.15, major_sections=48,
+                                                     minor_sections=16))
     chain_a, chain_b = as_body(a, "a").chain, as_body(b, "b").chain
     world = CollisionWorld()
     world.add("a", a)
     world.add("b", b)
-    objects = []
-    for p in (a, b):
-        m = p.mesh()
-        bvh = fcl.BVHModel()
-        bvh.beginModel(len(m.vertices), len(m.faces))
-        bvh.addSubModel(np.array(m.vertices), np.array(m.faces))
-        bvh.endModel()
-        objects.append(fcl.CollisionObject(bvh, fcl.Transform()))
+    mixed = CollisionWorld()
+    mixed.add("mesh", block)
+    mixed.add("b", b)
+    objects = [_fcl_object(p.mesh()) for p in (a, b)]
+    mesh_object = _fcl_object(block)
     rng = np.random.default_rng(1)
     moves = np.tile(np.eye(4), (poses, 1, 1))
     moves[:, :3, :3] = Rotation.random(poses, random_state=rng).as_matrix()
     moves[:, :3, 3] = rng.uniform(-0.8, 0.8, (poses, 3))
-    print(f"pipe vs pipe: {len(a.path) - 1} and {len(b.path) - 1} units; meshes of "
-          f"{len(a.mesh().faces)} and {len(b.mesh().faces)} triangles; {poses} poses "
-          f"(best of {repeat})")
-
-    def fcl_loop(query, count):
-        out = []
-        for m in moves[:count]:
-            objects[1].setTransform(fcl.Transform(m[:3, :3], m[:3, 3]))
-            out.append(query())
-        return np.array(out)
-
-    request = fcl.CollisionRequest()
-    t_fcl, fcl_hits = best_of(repeat, lambda: fcl_loop(
-        lambda: fcl.collide(*objects, request, fcl.CollisionResult()) > 0, poses))
-    t_call, call_hits = best_of(repeat, lambda: np.array(
-        [chain_a.gap(chain_b, m, stop_below=0.0)[0] <= 0 for m in moves]))
-    t_batch, batch_hits = best_of(repeat, lambda: chain_a.gaps(chain_b, moves,
-                                                                stop_below=0.0)[0] <= 0)
-    t_world, report = best_of(repeat, lambda: world.check_many({"b": moves}))
-    print(f"  collide   FCL meshes                {poses / t_fcl:10.0f}/s")
-    for label, seconds in (("cadpipe per pose", t_call), ("cadpipe batched", t_batch),
-                           ("cadpipe check_many", t_world)):
-        print(f"            {label:25s} {poses / seconds:10.0f}/s   ratio {t_fcl / seconds:6.2f}x")
-    print(f"  batched == per pose: {int((batch_hits == call_hits).sum())}/{poses}; "
-          f"check_many == per pose: {int((report.colliding == call_hits).sum())}/{poses}; "
-          f"agree with FCL on the meshes: {int((batch_hits == fcl_hits).sum())}/{poses}")
     count = poses // 10
-    distance = fcl.DistanceRequest()
-    t_fcl, _ = best_of(repeat, lambda: fcl_loop(
-        lambda: fcl.distance(*objects, distance, fcl.DistanceResult()), count))
-    t_call, _ = best_of(repeat, lambda: [chain_a.gap(chain_b, m) for m in moves[:count]])
-    t_batch, _ = best_of(repeat, lambda: chain_a.gaps(chain_b, moves[:count]))
-    print(f"  distance  FCL meshes                {count / t_fcl:10.0f}/s   ({count} poses)")
-    for label, seconds in (("cadpipe per pose", t_call), ("cadpipe batched", t_batch)):
-        print(f"            {label:25s} {count / seconds:10.0f}/s   ratio {t_fcl / seconds:6.2f}x")
+    print(f"pipe vs pipe: {len(a.path) - 1} and {len(b.path) - 1} units; meshes of "
+          f"{len(a.mesh().faces)} and {len(b.mesh().faces)} triangles; pipe vs a "
+          f"{len(block.faces)}-triangle torus; {poses} poses, distance on {count} "
+          f"(medians of {repeat} interleaved runs)")
+
+    def fcl_loop(first, query, n):
+        def run():
+            out = []
+            for m in moves[:n]:
+                objects[1].setTransform(fcl.Transform(m[:3, :3], m[:3, 3]))
+                out.append(query(first, objects[1]))
+            return np.array(out)
+        return run
+
+    def per_pose(w, n, query):
+        def run():
+            out = []
+            for m in moves[:n]:
+                w.set_pose("b", m)
+                out.append(query(w))
+            return np.array(out)
+        return run
+
+    request, distance = fcl.CollisionRequest(), fcl.DistanceRequest()
+
+    def hit(x, y):
+        return fcl.collide(x, y, request, fcl.CollisionResult()) > 0
+
+    def apart(x, y):
+        return fcl.distance(x, y, distance, fcl.DistanceResult())
+
+    seconds, out = interleaved({
+        "pipe-pipe collide: FCL meshes": fcl_loop(objects[0], hit, poses),
+        "pipe-pipe collide: cadpipe per pose": per_pose(world, poses,
+                                                        lambda w: bool(w.check(first_hit=True))),
+        "pipe-pipe collide: cadpipe check_many": lambda: world.check_many({"b": moves}).colliding,
+        "pipe-pipe collide: cadpipe chain gaps, batched":
+            lambda: chain_a.gaps(chain_b, moves, stop_below=0.0)[0] <= 0,
+        "pipe-mesh collide: FCL meshes": fcl_loop(mesh_object, hit, poses),
+        "pipe-mesh collide: cadpipe per pose": per_pose(mixed, poses,
+                                                        lambda w: bool(w.check(first_hit=True))),
+        "pipe-mesh collide: cadpipe check_many": lambda: mixed.check_many({"b": moves}).colliding,
+        "pipe-pipe distance: FCL meshes": fcl_loop(objects[0], apart, count),
+        "pipe-pipe distance: cadpipe per pose": per_pose(
+            world, count, lambda w: w.distance("a", "b").distance),
+        "pipe-pipe distance: cadpipe chain gaps, batched":
+            lambda: chain_a.gaps(chain_b, moves[:count])[0],
+        "pipe-mesh distance: FCL meshes": fcl_loop(mesh_object, apart, count),
+        "pipe-mesh distance: cadpipe per pose": per_pose(
+            mixed, count, lambda w: w.distance("mesh", "b").distance),
+    }, repeat)
+    for label, s in seconds.items():
+        query = label.split(":")[0]
+        reference = seconds[f"{query}: FCL meshes"]
+        n = count if "distance" in label else poses
+        print(f"  {label:50s} {n / s:10.0f}/s   ratio to FCL {reference / s:7.2f}x")
+    for query in ("pipe-pipe collide", "pipe-mesh collide"):
+        mine = out[f"{query}: cadpipe per pose"]
+        print(f"  {query}: check_many == per pose "
+              f"{int((out[f'{query}: cadpipe check_many'] == mine).sum())}/{poses}; agree with "
+              f"FCL on the meshes {int((out[f'{query}: FCL meshes'] == mine).sum())}/{poses}")
 
 
 # -- the Panda cell: one state at a time against MuJoCo, pybullet, coal and FCL ------------
 PANDA = FilePath(__file__).resolve().parents[1] / "assets" / "robots" / "panda"
-
-
-def interleaved(runs, repeat):
-    """Median seconds of each of ``runs`` (name -> callable), timed A B A B ... after
-    one untimed round (caches, lazily built trees, JIT compilation); and each run's
-    last result."""
-    results = {name: run() for name, run in runs.items()}
-    times = {name: [] for name in runs}
-    for _ in range(repeat):
-        for name, run in runs.items():
-            start = time.perf_counter()
-            results[name] = run()
-            times[name].append(time.perf_counter() - start)
-    return {name: float(np.median(t)) for name, t in times.items()}, results
 
 
 def shifted(x, y, z):
@@ -466,13 +489,10 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--only", choices=("panda", "arm", "pipes"))
     args = parser.parse_args()
-    if args.only in (None, "panda"):
-        panda(args.configs, args.repeat)
-    if args.only not in (None, "arm"):
-        return
-    robot_cell(args.configs, args.repeat)
-    pipe_pair(args.configs, args.repeat)
-
+    parts = {"panda": panda, "arm": robot_cell, "pipes": pipe_pair}
+    for name, part in parts.items():
+        if args.only in (None, name):
+            part(args.configs, args.repeat)
 
 if __name__ == "__main__":
     main()

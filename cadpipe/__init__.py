@@ -1,28 +1,34 @@
 """cadpipe: watertight tube meshes along 3D paths.
 
 The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
-:class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then export.
+:class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then
+:class:`Assembly` (booleans) and files; :class:`CollisionWorld` beside it.
+
+The public API is what ``__all__`` names here (plus ``cadpipe.primitives`` and
+``cadpipe.collision.__all__``): those names follow the deprecation policy (a
+renamed name warns for one release). The subpackages' other modules are the
+layout of the implementation (see docs/architecture.md) and may change.
 """
 
-from cadpipe.solids import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
-from cadpipe.solids.assembly import Assembly
+from cadpipe import _moved, limits  # noqa: F401  (cadpipe.limits.using(max_triangles=...))
 from cadpipe.collision import CollisionWorld
-from cadpipe.errors import CadpipeError, ExportError, GeometryError, InputError, MeshError, SpecError
-from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
-from cadpipe.solids.validity import check_mesh
+from cadpipe.errors import (CadpipeError, ExportError, GeometryError, InputError, LimitError,
+                            MeshError, SpecError)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe
-from cadpipe.io.spec import load
 from cadpipe.geometry.splice import splice
+from cadpipe.io.spec import load
+from cadpipe.solids import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
+from cadpipe.solids.assembly import Assembly
+from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
+from cadpipe.solids.validity import check_mesh
 
 __version__ = "0.1.0"
 
 __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "InputError",
            "Mesh", "MeshError", "Path", "Pipe", "SpecError", "__version__", "check_mesh",
            "splice"]
-__all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "load"]
-
-from cadpipe import _moved
+__all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "LimitError", "limits", "load"]
 
 _moved.install()

@@ -2,9 +2,10 @@
 
 The batch code keeps vectors component-first, ``(3, N)`` with ``axis=0``: every
 operation then runs over long contiguous rows. Measured by ``benchmarks/bench_vec.py``
-(100,000 vectors, medians; docs/performance.md): these helpers run 1.9-2.8x faster
+(100,000 vectors, medians; docs/performance.md): these helpers run 1.7-2.8x faster
 on ``(3, N)`` than on ``(N, 3)``; on ``(3, N)``, ``norm`` (einsum) is 1.2x
-``np.linalg.norm``, ``dot`` 1.4-1.6x ``(a * b).sum``, ``cross`` 10-15x ``np.cross``.
+``np.linalg.norm``, ``dot`` 1.4-1.6x ``(a * b).sum``, ``cross`` 10-15x ``np.cross``
+(9.7-15x over three runs).
 """
 
 import numpy as np

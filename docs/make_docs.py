@@ -28,7 +28,8 @@ EXIT_CODES = {0: "success",
               1: "bad input (a cadpipe error or an unreadable/unwritable file): one line "
                  "`cadpipe COMMAND: error: ...` on stderr, no traceback, no partial output file",
               2: "bad usage (unknown option, missing argument): argparse's message on stderr",
-              130: "interrupted (Ctrl-C)"}
+              130: "interrupted (Ctrl-C)",
+              141: "stdout closed by the reader (`| head`): exits quietly"}
 
 #: what the parsers cannot say. ``exit`` overrides or adds to :data:`EXIT_CODES`; every
 #: example runs from the repository root (tests/test_docs.py runs them, in this order)

@@ -114,7 +114,7 @@ def test_scaled_and_hollow_parts_are_checked_as_their_solids(tmp_path):
     ('units = "mm"\n[robot]\nurdf = "robot.urdf"\n', "units: a spec with a robot is in metres"),
     ('[robot]\nurdf = "robot.urdf"\n[[parts]]\nname = "arm"\nkind = "box"\nsize = 1\n',
      "robot: the robot's link 'arm' has the name of a part"),
-    ('[robot]\nurdf = "bad.urdf"\n', "robot: "),
+    ('[robot]\nurdf = "bad.urdf"\n', "robot.urdf: "),
     ('[check]\nfast = true\n[[parts]]\nkind = "box"\nsize = 1\n', "check.fast: unknown key"),
     ('[check]\ncertify = "yes"\n[[parts]]\nkind = "box"\nsize = 1\n',
      "check.certify: expected true or false"),

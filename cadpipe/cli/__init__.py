@@ -1,14 +1,23 @@
 """The ``cadpipe`` command: a thin layer over the Python API.
 
-Each subcommand parses its arguments, calls the API and prints the result. A
-:class:`~cadpipe.errors.CadpipeError` becomes one readable line on stderr and
-exit code 1; bad usage exits 2 (argparse's convention); success exits 0.
+Each subcommand parses its arguments, calls the API and prints the result. Any
+failure ends in one line on stderr and a non-zero exit, never a traceback: a
+:class:`~cadpipe.errors.CadpipeError` or an OS error exits 1 with its message, a
+failure cadpipe did not foresee exits 1 naming the exception ("internal error")
+; bad usage exits 2 (argparse's convention); Ctrl-C exits 130 at once; a closed
+stdout (``cadpipe collide --json | head``) exits quietly (141). Ctrl-C stops
+as soon as Python regains control; the budgets of :mod:`cadpipe.limits` keep
+every single library call short, and files are written whole or not at all. Warnings from numpy
+and the libraries below are not printed: what matters reaches the user as an
+error.
 """
 
 import argparse
+import os
 import sys
+import warnings
 
-from cadpipe.errors import CadpipeError
+from cadpipe.errors import CadpipeError, _escape
 
 COMMANDS = {}
 
@@ -23,6 +32,11 @@ def command(name, help, arguments):
     return wrap
 
 
+def budgets(args):
+    """The limits set on the command line, as :func:`cadpipe.io.spec.read` takes them."""
+    return {"max_triangles": getattr(args, "max_triangles", None)}
+
+
 def build_parser():
     from cadpipe import __version__
 
@@ -34,20 +48,61 @@ def build_parser():
     for name, (func, help, arguments) in COMMANDS.items():
         p = sub.add_parser(name, help=help, description=help)
         arguments(p)
+        p.add_argument("--max-triangles", type=int, metavar="N",
+                       help="refuse work that would make more triangles than N "
+                            "(default 5,000,000; see docs/spec.md, limits)")
         p.set_defaults(func=func)
     return parser
 
 
 def main(argv=None):
     """Entry point of the ``cadpipe`` console script and ``python -m cadpipe``."""
+    from cadpipe import limits
     from cadpipe.cli import commands  # noqa: F401  (registers the subcommands)
 
     args = build_parser().parse_args(argv)
+    name = f"cadpipe {args.command}"
     try:
-        return args.func(args) or 0
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with limits.using(**budgets(args)):
+                code = args.func(args) or 0
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        return _quiet_broken_pipe()
     except (CadpipeError, OSError) as exc:
-        print(f"cadpipe {args.command}: error: {exc}", file=sys.stderr)
-        return 1
+        return _fail(name, exc)
     except KeyboardInterrupt:
-        print(f"cadpipe {args.command}: interrupted", file=sys.stderr)
+        _line(f"{name}: interrupted")
         return 130
+    except MemoryError:
+        return _fail(name, "out of memory; lower the work asked for (see --max-triangles)")
+    except RecursionError:
+        return _fail(name, "input nested too deeply to process")
+    except Exception as exc:                  # noqa: BLE001 (the one place that catches all)
+        return _fail(name, f"internal error ({type(exc).__name__}: {exc}); please report it")
+
+
+def _line(text):
+    """One line on stderr, whatever ``text`` holds."""
+    text = _escape(str(text))
+    try:
+        print(text if len(text) <= 2000 else text[:1996] + " ...", file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
+
+
+def _fail(name, exc):
+    _line(f"{name}: error: {exc}")
+    return 1
+
+
+def _quiet_broken_pipe():
+    """stdout was closed by the reader (``| head``): exit quietly, as Unix tools do."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    return 141                               # 128 + SIGPIPE, as a shell reports it

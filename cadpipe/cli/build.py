@@ -6,6 +6,7 @@ boolean, every output's format. Only then are files written, each atomically.
 
 from pathlib import Path as FilePath
 
+from cadpipe import limits
 from cadpipe.cli import command
 from cadpipe.errors import CadpipeError, InputError
 
@@ -34,12 +35,12 @@ def build(args):
     outputs = [(FilePath(o), args.mode) for o in args.output] or \
         [(path, args.mode or mode) for path, mode in spec.outputs]
     if not outputs:
-        raise InputError(f"{args.spec}: nothing to write; pass -o FILE or list outputs "
-                         "in the spec")
+        raise InputError("nothing to write; pass -o FILE or list outputs in the spec",
+                         file=args.spec)
     for path, _ in outputs:
         if suffix_of(path) not in exporters:
-            raise InputError(f"{path}: unknown output format; supported: "
-                             f"{', '.join('.' + n for n in exporters.names())}")
+            raise InputError("unknown output format; supported: "
+                             f"{', '.join('.' + n for n in exporters.names())}", file=path)
         check_target(path)
 
     assembly = spec.assembly
@@ -52,9 +53,10 @@ def build(args):
         task = progress.add_task("parts", total=len(assembly.parts) + 1 + len(outputs))
         step = lambda label: progress.update(task, advance=1, description=label)  # noqa: E731
         try:
-            solid = assembly.union(progress=step)
-        except CadpipeError as exc:           # name the spec, as its reading errors do
-            raise type(exc)(f"{spec.file}: {exc}") from None
+            with limits.using(**spec.budgets):
+                solid = assembly.union(progress=step)
+        except CadpipeError as exc:           # at the part's key, as reading errors are
+            raise spec.locate(exc) from exc.__cause__
         for path, mode in outputs:
             progress.update(task, description=f"writing {path.name}")
             ensure_folder(path.parent)

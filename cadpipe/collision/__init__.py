@@ -10,8 +10,9 @@ from cadpipe.collision.cell import world_from_spec
 from cadpipe.collision.certificate import Certificate
 from cadpipe.collision.fixture import PipeContainment
 from cadpipe.collision.robot import Joint, Robot, srdf_disabled_pairs
-from cadpipe.collision.world import STAGES, Clearance, CollisionReport, CollisionReports, CollisionWorld, PairResult
+from cadpipe.collision.world import (STAGES, Clearance, CollisionReport, CollisionReports,
+                                     CollisionWorld, PairResult)
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
            "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment",
-           "Robot", "Sphere", "srdf_disabled_pairs", "world_from_spec"]
+           "Robot", "Sphere", "Surface", "srdf_disabled_pairs", "world_from_spec"]

@@ -117,6 +117,14 @@ class Body:
         return (proj - pad[:, None]).min(axis=0), (proj + pad[:, None]).max(axis=0)
 
     @cached_property
+    def inside_filter(self):
+        """``(lo, hi, low, high, slack)``: the mesh's box, its local 18-DOP slabs and
+        the slack they are compared with, for the containment prefilter."""
+        lo, hi = self.mesh.bounds
+        low, high = self.local_kdop
+        return lo, hi, low, high, 1e-9 * float(np.max(high - low))
+
+    @cached_property
     def extremes(self):
         """(18, 3) points of the body farthest along each 18-DOP direction, both ways:
         a solid inside another has all of them inside the other's hull."""
@@ -214,5 +222,5 @@ def as_body(obj, name):
     if isinstance(obj, Capsule):
         half = np.array([[0.0, 0.0, -0.5 * obj.length], [0.0, 0.0, 0.5 * obj.length]])
         return Body(chain=Chain.along(half, obj.radius))
-    raise InputError(f"{name}: cannot check a {type(obj).__name__} for collisions; "
-                     "add a cadpipe Mesh, Pipe, Box, Sphere or Capsule")
+    raise InputError(f"cannot check a {type(obj).__name__} for collisions; "
+                     "add a cadpipe Mesh, Pipe, Box, Sphere or Capsule", part=name)

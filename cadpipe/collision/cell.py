@@ -8,7 +8,8 @@ added parts are the collision objects, with an optional ``robot``, ``allow`` and
 
 from cadpipe.solids.booleans import carve
 from cadpipe.geometry.pipe import Pipe
-from cadpipe.io.spec import Spec, SpecContext, read
+from cadpipe.errors import CadpipeError
+from cadpipe.io.spec import Spec, read
 from cadpipe.solids.transform import is_rigid
 from cadpipe.collision.world import CollisionWorld
 
@@ -44,11 +45,12 @@ def world_from_spec(spec):
     if cell.robot is not None:
         posed = cell.robot
         world.add_robot(posed.robot, posed.joints, posed.transform, posed.group)
-    ctx = SpecContext(spec.file)
-    for i, part in enumerate(spec.assembly.parts):
+    for part in spec.assembly.parts:
         if part.name in cell.objects:
-            with ctx.keyed(f"parts[{i}]"):
+            try:
                 world.add(part.name, *collision_shape(part))
+            except CadpipeError as exc:          # at the part's key, as reading errors are
+                raise spec.locate(exc.at(part=part.name)) from exc.__cause__
     for a, b, reason in cell.allow:
         world.allow(a, b, reason)
     return world

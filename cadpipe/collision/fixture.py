@@ -13,7 +13,8 @@ half the longest segment, and less the largest radius for the wall) is
 answered from them, the rare rest against every segment -- so the answer is
 exact, not a nearest-vertex approximation.
 
-:func:`containment` is the ordered tool-path question. The points themselves are classified by their signed distance to the pipe's
+:func:`containment` is the ordered tool-path question. The points themselves are
+classified by their signed distance to the pipe's
 ball chain. The path between them matters too (a straight move can cut a bend
 while both ends are inside), so each path segment is intersected with every
 nearby unit: the signed distance of a convex unit is convex along a line, so

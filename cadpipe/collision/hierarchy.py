@@ -23,25 +23,22 @@ query in about eight capsule tests.
 
 The tree is perfect (every leaf at the same depth, some empty) in heap order,
 so :func:`chain_gaps` walks both trees in lockstep without looking children
-up: the frontier is a flat list of ``(pose, node_a, node_b)`` entries for a
-whole batch of poses, every capsule test is a few numpy operations on
-coordinate arrays, and only leaf pairs the radii cannot decide go to the exact
-round-cone gap of :func:`cadpipe.collision.capsules.unit_pair_gap`.
+up (node ``k``'s are ``2k + 1``, ``2k + 2``): a compiled depth-first walk per
+pose (numba; one pose costs one call, not the ~60 numpy calls a breadth-first
+frontier in numpy took), in which capsule leaf pairs get their exact gap from
+the radii and only tapered leaf pairs go to the exact round-cone gap of
+:func:`cadpipe.collision.capsules.unit_pair_gap`, batched over all poses.
 """
 
-from functools import cached_property
 
+import numba
 import numpy as np
 
-from cadpipe._vec import dot
-from cadpipe.collision.capsules import inverse, segment_params, unit_pair_gap
+from cadpipe.collision.capsules import inverse, unit_pair_gap
+from cadpipe.geometry.ragged import Groups
 
-#: poses per pass of :func:`chain_gaps`: the frontier's arrays stay in cache
+#: poses per call of the compiled walk (bounds the buffer of leaf pairs left over)
 CHUNK = 4096
-#: node pairs per pose the walk may start with: a small batch starts deeper
-START = 256
-#: the four child pairs of a node pair, as offsets from each side's first child
-SPLIT_A, SPLIT_B = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
 
 
 class CapsuleTree:
@@ -60,18 +57,14 @@ class CapsuleTree:
         count = len(edges)
         self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
         size = 2 ** (self.depth + 1) - 1
-        first, last = np.zeros(size, np.int64), np.zeros(size, np.int64)
-        for d in range(self.depth + 1):
-            j = np.arange(2 ** d)
-            first[2 ** d - 1 + j] = j * count // 2 ** d
-            last[2 ** d - 1 + j] = (j + 1) * count // 2 ** d
+        first, last = _heap_runs(count, self.depth)
         full = np.flatnonzero(last > first)
         lo, hi = first[full], last[full]
-        # every unit of every node, node after node, for per-node extremes by reduceat
-        runs = hi - lo
-        offsets = np.r_[0, np.cumsum(runs)[:-1]]
-        units = np.repeat(lo - offsets, runs) + np.arange(runs.sum())
-        owner = np.repeat(np.arange(len(full)), runs)
+        # every unit of every non-empty node, node after node (ragged rows), so per-node
+        # extremes are one reduceat over them
+        members = Groups(hi - lo)
+        runs, offsets, owner = members.counts, members.first, members.index
+        units = lo[owner] + members.local()
         start = chain.centers[edges[lo, 0]]
         d = chain.centers[edges[hi - 1, 1]] - start
         inv = inverse(np.einsum("ij,ij->i", d, d))
@@ -119,25 +112,19 @@ class CapsuleTree:
         self.chord = self.points[self.p1] - self.start
         self.chord_sq = np.einsum("ij,ij->i", self.chord, self.chord)
         self.inv_chord_sq = inverse(self.chord_sq)
-        self.homogeneous = np.vstack([self.points.T, np.ones(len(self.points))])
-        self.span = self.p1 - self.p0
 
-    @cached_property
-    def start_t(self):
-        """``start`` as (3, N) coordinate rows."""
-        return np.ascontiguousarray(self.start.T)
 
-    @cached_property
-    def chord_t(self):
-        """``chord`` as (3, N) coordinate rows."""
-        return np.ascontiguousarray(self.chord.T)
-
-    @cached_property
-    def capsule_leaves(self):
-        """Whether every unit is a capsule (inner == outer): then the radii decide
-        every leaf pair of a yes/no query."""
-        leaves = 2 ** self.depth - 1 + np.flatnonzero(self.unit >= 0)
-        return bool(np.all(self.inner[leaves] == self.outer[leaves]))
+def _heap_runs(count, depth):
+    """``(first, last)`` units of every node of a perfect tree of ``depth`` over
+    ``count`` units, in heap order: node ``2**d - 1 + j`` (the ``j``-th at depth
+    ``d``) covers units ``j * count // 2**d`` up to ``(j + 1) * count // 2**d``
+    (empty where they are equal)."""
+    first, last = [], []
+    for d in range(depth + 1):
+        j = np.arange(2 ** d)
+        first.append(j * count // 2 ** d)
+        last.append((j + 1) * count // 2 ** d)
+    return np.concatenate(first), np.concatenate(last)
 
 
 def chain_gaps(chain_a, chain_b, poses, stop_below=None):
@@ -164,10 +151,9 @@ def chain_gaps(chain_a, chain_b, poses, stop_below=None):
     params : (P, 2) array
         ``(s, t)`` along those units' axes (NaN where settled early).
     """
-    poses = np.asarray(poses, np.float64)
-    gap = np.full(len(poses), np.inf)
-    units = np.full((len(poses), 2), -1, np.int64)
-    params = np.full((len(poses), 2), np.nan)
+    poses = np.ascontiguousarray(poses, np.float64).reshape(-1, 4, 4)
+    gap, units, params = np.empty(len(poses)), np.empty((len(poses), 2), np.int64), \
+        np.empty((len(poses), 2))                 # every entry written by the walk
     for start in range(0, len(poses), CHUNK):
         part = slice(start, start + CHUNK)
         _walk(chain_a, chain_b, poses[part], stop_below, gap[part], units[part], params[part])
@@ -175,72 +161,125 @@ def chain_gaps(chain_a, chain_b, poses, stop_below=None):
 
 
 def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
-    """:func:`chain_gaps` for one chunk of poses, into its output slices."""
+    """:func:`chain_gaps` for one chunk of poses, into its output slices: the
+    compiled walk, then the exact round-cone gap of the tapered leaf pairs it
+    left (capsule leaf pairs it settles itself: their radii are exact)."""
     ta, tb = chain_a.tree, chain_b.tree
-    count, n_b = len(poses), len(tb.points)
-    # b's chord ends at every pose in one matrix product: coordinate k of point c at
-    # pose p is moved[(3 p + k) n_b + c] (the ball centres come first)
-    moved = (poses[:, :3].reshape(-1, 4) @ tb.homogeneous).ravel()
-    xyz = (np.arange(3) * n_b)[:, None]
     cap = np.inf if stop_below is None else float(stop_below)
-    exact = stop_below is None or not (ta.capsule_leaves and tb.capsule_leaves)
-    bound = np.full(count, np.inf)                 # a proven upper bound of each gap
-    # the roots' test is left out (whole chains' capsules nearly always meet, and the
-    # world's broad phase has compared them), and few poses start deeper still: fewer
-    # passes, each over more node pairs
-    bottom = max(ta.depth, tb.depth)
-    top = min(max(int(np.log(max(START / count, 1.0)) / np.log(4.0)), 1), bottom)
-    na, nb = _level(ta, top), _level(tb, top)
-    pose = np.repeat(np.arange(count), len(na) * len(nb))
-    na, nb = np.tile(np.repeat(na, len(nb)), count), np.tile(nb, count * len(na))
-    for depth in range(top, bottom + 1):
-        i0 = tb.p0[nb] + pose * (3 * n_b) + xyz                     # (3, E) coordinates
-        q0 = np.take(moved, i0)
-        v = np.take(moved, i0 + tb.span[nb]) - q0
-        u = np.take(ta.chord_t, na, axis=1)
-        r = np.take(ta.start_t, na, axis=1) - q0
-        s, t = segment_params(ta.chord_sq[na], tb.chord_sq[nb], dot(u, v, 0), dot(u, r, 0),
-                              dot(v, r, 0), ta.inv_chord_sq[na], tb.inv_chord_sq[nb])
-        r += s * u - t * v
-        dist = np.sqrt(dot(r, r, 0))
-        upper = dist - ta.inner[na] - tb.inner[nb]
-        lower = dist - ta.outer[na] - tb.outer[nb]
-        if stop_below is None:
-            np.minimum.at(bound, pose, np.maximum(upper, 0.0))
-            keep = (lower <= bound[pose]).nonzero()[0]
-        else:
-            hit = (upper <= cap).nonzero()[0]
-            bound[pose[hit]] = np.maximum(upper[hit], 0.0)
-            keep = ((lower <= cap) & (bound[pose] > cap)).nonzero()[0]
-        pose, na, nb = pose[keep], na[keep], nb[keep]
-        if depth == bottom:
+    room = 64 * len(poses)
+    while True:
+        left = np.empty((room, 3), np.int64)         # (pose, unit of a, unit of b)
+        count = _walk_kernel(ta.start, ta.chord, ta.chord_sq, ta.inv_chord_sq, ta.inner,
+                             ta.outer, ta.unit, ta.depth, tb.points, tb.p0, tb.p1, tb.chord_sq,
+                             tb.inv_chord_sq, tb.inner, tb.outer, tb.unit, tb.depth, poses,
+                             cap, stop_below is not None, gap, units, params, left)
+        if count >= 0:
             break
-        # children in heap order; a tree already at its leaves stays there
-        pose = np.repeat(pose, 4)
-        na = ((2 * na + 1)[:, None] + SPLIT_A).ravel() if depth < ta.depth else np.repeat(na, 4)
-        nb = ((2 * nb + 1)[:, None] + SPLIT_B).ravel() if depth < tb.depth else np.repeat(nb, 4)
-    gap[:] = bound
-    if exact and pose.size:
-        ua, ub = ta.unit[na - 2 ** ta.depth + 1], tb.unit[nb - 2 ** tb.depth + 1]
-        _exact(chain_a, chain_b, moved, n_b, pose, ua, ub, gap, units, params)
+        room *= 4
+    if count:
+        _exact(chain_a, chain_b, poses, left[:count], gap, units, params)
 
 
-def _level(tree, depth):
-    """The nodes of ``tree`` at ``depth`` (its leaves if it is shallower)."""
-    depth = min(depth, tree.depth)
-    return np.arange(2 ** depth - 1, 2 ** (depth + 1) - 1)
+@numba.njit(cache=True, nogil=True)
+def _walk_kernel(start_a, chord_a, chord_sq_a, inv_a, inner_a, outer_a, unit_a, depth_a,
+                 points_b, p0_b, p1_b, chord_sq_b, inv_b, inner_b, outer_b, unit_b, depth_b,
+                 poses, cap, yes_no, gap, units, params, left):
+    """Walk both trees in lockstep for each pose, depth first.
+
+    Per node pair: the chords' closest points (Ericson's clamping, as
+    :func:`segment_params`), ``dist``; ``dist - inner - inner`` bounds the gap
+    from above, ``dist - outer - outer`` from below. A yes/no query (``yes_no``)
+    settles a pose once the upper bound is at most ``cap``; otherwise pairs whose
+    lower bound exceeds the best upper bound are dropped. Capsule leaf pairs
+    (inner == outer) give their exact gap; other leaf pairs go to ``left`` for
+    the exact round-cone gap. Returns how many went there, -1 if ``left`` is
+    too small.
+    """
+    leaves_a, leaves_b = 2 ** depth_a - 1, 2 ** depth_b - 1
+    moved = np.empty((len(points_b), 3))
+    stack_a = np.empty(4 * (depth_a + depth_b + 2) * 4, np.int64)
+    stack_b = np.empty(len(stack_a), np.int64)
+    count = 0
+    for p in range(len(poses)):
+        m = poses[p]
+        for k in range(len(points_b)):
+            for r in range(3):
+                moved[k, r] = m[r, 0] * points_b[k, 0] + m[r, 1] * points_b[k, 1] \
+                    + m[r, 2] * points_b[k, 2] + m[r, 3]
+        bound, best = np.inf, np.inf
+        units[p, 0], units[p, 1], params[p, 0], params[p, 1] = -1, -1, np.nan, np.nan
+        stack_a[0], stack_b[0] = 0, 0
+        top = 1
+        while top:
+            top -= 1
+            na, nb = stack_a[top], stack_b[top]
+            q0 = moved[p0_b[nb]]
+            v = moved[p1_b[nb]] - q0
+            u = chord_a[na]
+            rx, ry, rz = start_a[na, 0] - q0[0], start_a[na, 1] - q0[1], start_a[na, 2] - q0[2]
+            uu, vv = chord_sq_a[na], chord_sq_b[nb]
+            uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+            ur = u[0] * rx + u[1] * ry + u[2] * rz
+            vr = v[0] * rx + v[1] * ry + v[2] * rz
+            square = uu * vv
+            den = square - uv * uv
+            s = 0.0
+            if den > 1e-14 * square:
+                s = min(max((uv * vr - ur * vv) / max(den, 1e-300), 0.0), 1.0)
+            t = min(max((uv * s + vr) * inv_b[nb], 0.0), 1.0)
+            s = min(max((uv * t - ur) * inv_a[na], 0.0), 1.0)
+            dx, dy, dz = rx + s * u[0] - t * v[0], ry + s * u[1] - t * v[1], \
+                rz + s * u[2] - t * v[2]
+            dist = np.sqrt(dx * dx + dy * dy + dz * dz)
+            upper = dist - inner_a[na] - inner_b[nb]
+            lower = dist - outer_a[na] - outer_b[nb]
+            bound = min(bound, max(upper, 0.0))
+            if yes_no and bound <= cap:
+                break
+            if lower > (cap if yes_no else min(bound, best)):
+                continue
+            leaf_a, leaf_b = na >= leaves_a, nb >= leaves_b
+            if leaf_a and leaf_b:
+                ua, ub = unit_a[na - leaves_a], unit_b[nb - leaves_b]
+                if inner_a[na] == outer_a[na] and inner_b[nb] == outer_b[nb]:
+                    if lower < best:                 # capsules: the gap is exact
+                        best = lower
+                        units[p, 0], units[p, 1], params[p, 0], params[p, 1] = ua, ub, s, t
+                    if yes_no and best <= cap:
+                        break
+                else:
+                    if count == len(left):
+                        return -1
+                    left[count, 0], left[count, 1], left[count, 2] = p, ua, ub
+                    count += 1
+                continue
+            # the children (a tree at its leaves stays there)
+            ca0, ca1 = (na, na) if leaf_a else (2 * na + 1, 2 * na + 2)
+            cb0, cb1 = (nb, nb) if leaf_b else (2 * nb + 1, 2 * nb + 2)
+            for ca, cb in ((ca1, cb1), (ca1, cb0), (ca0, cb1), (ca0, cb0)):
+                if (leaf_a and ca != ca0) or (leaf_b and cb != cb0):
+                    continue
+                stack_a[top], stack_b[top] = ca, cb
+                top += 1
+        if yes_no and min(bound, best) <= cap:       # settled: no closest pair known
+            units[p, 0], units[p, 1], params[p, 0], params[p, 1] = -1, -1, np.nan, np.nan
+        gap[p] = min(bound, best) if yes_no else best
+    return count
 
 
-def _exact(chain_a, chain_b, moved, n_b, pose, ua, ub, gap, units, params):
-    """Exact gaps of the leaf pairs the radii could not decide; each pose with any
-    gets the smallest (its closest pair always survives the pruning)."""
-    row = (pose * (3 * n_b))[:, None] + np.arange(3) * n_b
-    ends_b = [moved[chain_b.edges[ub, k][:, None] + row] for k in (0, 1)]
+def _exact(chain_a, chain_b, poses, left, gap, units, params):
+    """Exact gaps of the tapered leaf pairs ``left`` (K, 3) of (pose, unit, unit); a
+    pose whose smallest beats the walk's gets it (its closest pair always
+    survives the pruning)."""
+    pose, ua, ub = left[:, 0], left[:, 1], left[:, 2]
+    ends_b = [np.einsum("kij,kj->ki", poses[pose, :3, :3], chain_b.centers[chain_b.edges[ub, k]])
+              + poses[pose, :3, 3] for k in (0, 1)]
     found, s, t = unit_pair_gap(chain_a.starts[ua], chain_a.ends[ua], chain_a.start_radii[ua],
                                 chain_a.end_radii[ua], ends_b[0], ends_b[1],
                                 chain_b.start_radii[ub], chain_b.end_radii[ub])
     order = np.lexsort((found, pose))
     first = order[np.r_[True, pose[order][1:] != pose[order][:-1]]]
-    p = pose[first]
+    better = first[found[first] < gap[pose[first]]]
+    p = pose[better]
     gap[p], units[p, 0], units[p, 1], params[p, 0], params[p, 1] = \
-        found[first], ua[first], ub[first], s[first], t[first]
+        found[better], ua[better], ub[better], s[better], t[better]

@@ -25,9 +25,8 @@ from cadpipe.collision.hierarchy import chain_gaps
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
 INSIDE = 0.5
 
-# One pose of one pair costs a few of these compiled loops instead of ~40 numpy
-# calls on (1, 4, 4) arrays: collide() on a Panda link pair 229 -> see
-# docs/performance.md for the per-state figures this buys.
+# One pose of one pair costs a few of these compiled loops instead of ~40 numpy calls
+# on (1, 4, 4) arrays (per-state figures in docs/performance.md).
 _jit = numba.njit(cache=True, nogil=True)
 
 
@@ -201,17 +200,16 @@ def _inside(mesh_body, other, rel):
     """
     if not mesh_body.closed:                                                  # a Surface
         return np.zeros(len(rel), bool)
-    low, high = mesh_body.local_kdop
-    lo, hi = mesh_body.mesh.bounds
+    lo, hi, low, high, slack = mesh_body.inside_filter
     near = np.empty(len(rel), np.bool_)
-    _could_be_inside(rel, other.probes, other.extremes, lo, hi, low, high,
-                     1e-9 * float(np.max(high - low)), near)
+    _could_be_inside(rel, other.probes, other.extremes, lo, hi, low, high, slack, near)
+    if not near.any():
+        return near
     near = near.nonzero()[0]
     inside = np.zeros(len(rel), bool)
-    if near.size:
-        points = _apply(rel[near], other.probes)                              # (e, K, 3)
-        found = mesh_contains(mesh_body, points.reshape(-1, 3))
-        inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
+    points = _apply(rel[near], other.probes)                                  # (e, K, 3)
+    found = mesh_contains(mesh_body, points.reshape(-1, 3))
+    inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
     return inside
 
 

@@ -154,19 +154,19 @@ class Robot:
         try:
             q = np.asarray(configurations, dtype=np.float64)
         except (TypeError, ValueError):
-            raise InputError(f"joints: expected numbers (radians or metres), got "
-                             f"{configurations!r}") from None
+            raise InputError("expected numbers (radians or metres), got "
+                             f"{configurations!r}", key="joints") from None
         q = q[None] if q.ndim == 1 else q
         if q.ndim != 2 or q.shape[1] != len(self.actuated):
-            raise InputError(f"joints: robot {self.name} has {len(self.actuated)} joints "
+            raise InputError(f"robot {self.name} has {len(self.actuated)} joints "
                              f"({', '.join(self.actuated)}), got "
-                             f"{q.shape[-1] if q.ndim else 1} values")
+                             f"{q.shape[-1] if q.ndim else 1} values", key="joints")
         k = self._kinematics
         within = (q >= k["lower"] - 1e-9) & (q <= k["upper"] + 1e-9)    # NaN is not
         if not within.all():
             c, a = np.argwhere(~within)[0]
-            raise InputError(f"joints: {self.actuated[a]}={float(q[c, a])!r} is outside its limits "
-                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]")
+            raise InputError(f"{self.actuated[a]}={float(q[c, a])!r} is outside its limits "
+                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]", key="joints")
         values = np.zeros((len(q), len(self.joints)))
         values[:, k["actuated"]] = q
         for j, source, multiplier, offset in k["mimics"]:
@@ -176,8 +176,8 @@ class Robot:
     def _from_mapping(self, joints):
         unknown = set(joints) - set(self.actuated)
         if unknown:
-            raise InputError(f"joints: unknown joint {sorted(unknown)[0]!r}; robot "
-                             f"{self.name} has {', '.join(self.actuated)}")
+            raise InputError(f"unknown joint {sorted(unknown)[0]!r}; robot "
+                             f"{self.name} has {', '.join(self.actuated)}", key="joints")
         return [joints.get(name, value) for name, value in zip(self.actuated, self.default)]
 
     def link_pose_array(self, configurations, base=None):
@@ -186,8 +186,8 @@ class Robot:
 
         Every joint's local transform is built at once (Rodrigues' formula,
         ``origin @ (I + sin K + (1 - cos) K^2)``, with the products by the origin
-        precomputed); then one stacked matrix product per joint walks down the
-        tree, for all configurations together.
+        precomputed), then multiplied down the tree, in one compiled call for all
+        configurations (:func:`cadpipe.collision.kinematics.chain_poses`).
         """
         return self.all_frame_poses(configurations, base)[:, self._kinematics["geometry"]]
 
@@ -200,15 +200,13 @@ class Robot:
     def _frame_pose_array(self, q, base):
         """``(C, F, 4, 4)`` poses of every frame (:attr:`frames` order) at ``(C, J)``
         values of every joint."""
+        from cadpipe.collision.kinematics import chain_poses
+
         k = self._kinematics
-        angle, shift = (q * k["revolute"])[..., None, None], (q * k["prismatic"])[..., None, None]
-        local = (k["origin"] + np.sin(angle) * k["turn"] + (1.0 - np.cos(angle)) * k["turn2"]
-                 + shift * k["slide"])
-        poses = np.empty((len(q), len(k["links"]), 4, 4))
-        poses[:, 0] = np.eye(4) if base is None else base
-        for step, (parent, child) in enumerate(k["edges"]):
-            np.matmul(poses[:, parent], local[:, step], out=poses[:, child])
-        return poses
+        return chain_poses(q, k["origin"], k["turn"], k["turn2"], k["slide"], k["revolute"],
+                           k["prismatic"], k["parent"], k["child"],
+                           _EYE if base is None else np.asarray(base, np.float64),
+                           k["frame_index"])
 
     def frame_poses(self, configurations, frame, base=None):
         """World pose of ``frame`` (any link of the URDF, with or without geometry,
@@ -244,8 +242,8 @@ class Robot:
         of one of :meth:`link_pose_array`."""
         poses = self.link_pose_array(joints, base)
         if len(poses) != 1:
-            raise InputError(f"joints: one configuration of robot {self.name} expected, got "
-                             f"{len(poses)}; use link_pose_array() for many")
+            raise InputError(f"one configuration of robot {self.name} expected, got "
+                             f"{len(poses)}; use link_pose_array() for many", key="joints")
         return poses[0]
 
     def link_poses(self, joints=None, base=None):
@@ -284,7 +282,7 @@ class Robot:
             model = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
                                        build_collision_scene_graph=False)
         except Exception as exc:      # lxml and yourdfpy raise many types for bad files
-            raise SpecError(f"{path}: not a readable URDF ({type(exc).__name__}: {exc})") \
+            raise SpecError(f"not a readable URDF ({type(exc).__name__}: {exc})", file=path) \
                 from None
         joints = [_joint(j) for j in model.robot.joints]
         meshes, notes, open_links, files = {}, {}, set(), {}
@@ -299,7 +297,7 @@ class Robot:
                 if is_open:
                     open_links.add(link.name)
         if not meshes:
-            raise SpecError(f"{path}: no link has collision geometry; nothing to check")
+            raise SpecError("no link has collision geometry; nothing to check", file=path)
         allowed = srdf_disabled_pairs(srdf) if srdf is not None else ()
         return cls(model.robot.name, joints, meshes, allowed, open_links, notes)
 
@@ -324,13 +322,19 @@ def _kinematics(joints, base, geometry):
             "turn2": origin @ cross @ cross, "slide": origin @ slide,
             "revolute": np.array([j.kind in ("revolute", "continuous") for j in joints], float),
             "prismatic": np.array([j.kind == "prismatic" for j in joints], float),
-            "edges": [(index[j.parent], index[j.child]) for j in joints],
             "actuated": np.array(actuated, np.int64),
             "lower": np.array([joints[k].lower for k in actuated]),
             "upper": np.array([joints[k].upper for k in actuated]),
             "mimics": [(k, position[j.mimic[0]], j.mimic[1], j.mimic[2])
                        for k, j in enumerate(joints) if j.mimic is not None],
-            "geometry": [index[link] for link in geometry]}
+            "geometry": [index[link] for link in geometry],
+            # the same as arrays, for the compiled walk (cadpipe.collision.kinematics)
+            "parent": np.array([index[j.parent] for j in joints], np.int64),
+            "child": np.array([index[j.child] for j in joints], np.int64),
+            "frame_index": np.arange(len(links), dtype=np.int64)}
+
+
+_EYE = np.eye(4)
 
 
 def _joint(j):
@@ -442,11 +446,11 @@ def _xml_root(path, what):
     from xml.etree import ElementTree
 
     if not path.is_file():
-        raise SpecError(f"{path}: no such {what} file")
+        raise SpecError(f"no such {what} file", file=path)
     try:
         return ElementTree.parse(path).getroot()
     except ElementTree.ParseError as exc:
-        raise SpecError(f"{path}: not readable XML ({exc})") from None
+        raise SpecError(f"not readable XML ({exc})", file=path) from None
 
 
 def srdf_disabled_pairs(path):
@@ -456,6 +460,6 @@ def srdf_disabled_pairs(path):
     for entry in _xml_root(path, "SRDF").iter("disable_collisions"):
         a, b = entry.get("link1"), entry.get("link2")
         if not a or not b:
-            raise SpecError(f"{path}: disable_collisions needs link1 and link2")
+            raise SpecError("disable_collisions needs link1 and link2", file=path)
         pairs.append((a, b, f"srdf: {entry.get('reason') or 'disabled'}"))
     return pairs

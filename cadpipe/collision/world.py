@@ -327,7 +327,7 @@ class Scene:
     def set_pose(self, name, transform):
         """Move object ``name`` to a new rigid 4x4 ``transform``."""
         i = self._find(name)
-        self._moved([i], as_pose(transform, name)[None])
+        self._moved(i, as_pose(transform, name))
 
     def _moved(self, ids, poses):
         self._poses[ids] = poses
@@ -477,7 +477,9 @@ class Checker:
         others are ``"allowed"`` or ``"not checked"``."""
         layout, scene = self.layout, self.scene
         table, placed = layout.table, self._placed
-        answers = self._answers.setdefault(bool(certify), _Answers(len(table)))
+        answers = self._answers.get(bool(certify))
+        if answers is None:
+            answers = self._answers[bool(certify)] = _Answers(len(table))
         versions = scene._pose_versions
         exact = np.empty(len(table), np.int64)
         hits = np.zeros(2, bool)                     # (a self pair, another pair) collides
@@ -505,7 +507,7 @@ class Checker:
                          versions, answers.at_a, answers.at_b, answers.code, answers.colliding,
                          codes, colliding, _CODE["allowed"], _CODE["not checked"])
         certificates = {k: c for k, c in answers.certificates.items()
-                        if codes[k] == _CODE["certificate"]}
+                        if codes[k] == _CODE["certificate"]} if answers.certificates else {}
         return CollisionReport(table, codes, colliding, certificates, stopped)
 
     def _involving(self, group):
@@ -620,7 +622,8 @@ class Checker:
         """Clearance between ``a`` and ``b`` with the closest points (a
         :class:`Clearance`); 0 when they touch or one contains the other."""
         i, j = self.scene._find(a), self.scene._find(b)
-        dist, pa, pb, stage = narrow.distance(self.scene._bodies[i], self.scene._poses[i], self.scene._bodies[j],
+        scene = self.scene
+        dist, pa, pb, stage = narrow.distance(scene._bodies[i], scene._poses[i], scene._bodies[j],
                                               self.scene._poses[j])
         return Clearance(float(dist), pa, pb, dist <= 0, stage)
 

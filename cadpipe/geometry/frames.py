@@ -24,7 +24,7 @@ undefined (OP parallel to the tangent) or turns a ring by more than
 
 import numpy as np
 
-from cadpipe._vec import cross, dot, norm, unit
+from cadpipe._vec import cross, dot, norm
 from cadpipe.errors import InputError
 from cadpipe.geometry.ragged import blocks
 
@@ -44,7 +44,7 @@ def as_direction(value, name):
         return NO_DIRECTION
     v = np.asarray(value, dtype=np.float64)
     if v.shape != (3,) or not np.isfinite(v).all():
-        raise InputError(f"{name}: expected 3 finite numbers, got {value!r}")
+        raise InputError(f"expected 3 finite numbers, got {value!r}", key=name)
     return v
 
 
@@ -114,8 +114,8 @@ def _angles_in_plane(vectors, tangents, u, w, name):
     across = v - tangents * dot(v, tangents, 0)
     parallel = norm(across, 0) <= 1e-9 * np.maximum(norm(v, 0), 1e-300)
     if parallel.any():
-        raise InputError(f"{name}: is parallel to the path's tangent there; "
-                         "give a direction across the path")
+        raise InputError("is parallel to the path's tangent there; "
+                         "give a direction across the path", key=name)
     return np.arctan2(dot(across, w, 0), dot(across, u, 0))
 
 

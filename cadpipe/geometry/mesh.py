@@ -6,18 +6,26 @@ computed on first use from numpy arrays and cached, so building a mesh costs
 nothing beyond its arrays.
 """
 
+from __future__ import annotations
+
+import os
+from collections.abc import Hashable, Iterable, Mapping, Sequence
 from functools import cached_property
+from typing import Any
 from types import MappingProxyType
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe._vec import cross
 from cadpipe.errors import InputError, MeshError
+from cadpipe.solids.transform import as_matrix
 
 
-def winding_numbers(triangles, points, chunk=2_000_000):
+def winding_numbers(triangles: np.ndarray, points: np.ndarray,
+                    chunk: int = 2_000_000) -> np.ndarray:
     """Generalized winding number of a closed triangle soup ``(F, 3, 3)`` at each point.
 
     The signed solid angles of the triangles seen from the point (Van Oosterom and
@@ -39,7 +47,7 @@ def winding_numbers(triangles, points, chunk=2_000_000):
     return out
 
 
-def connected_labels(count, a, b):
+def connected_labels(count: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Connected-component label of each of ``count`` nodes linked by the pairs ``(a, b)``.
 
     Parameters
@@ -61,7 +69,7 @@ def connected_labels(count, a, b):
     return connected_components(graph, directed=False)[1]
 
 
-def merge_tables(tables):
+def merge_tables(tables: Iterable[Sequence[Hashable]]) -> tuple[tuple, list[np.ndarray]]:
     """The distinct entries of several label tables as one, in first-seen order.
 
     Parameters
@@ -95,11 +103,13 @@ class Mesh:
     Parameters
     ----------
     vertices : (V, 3) array_like
+        Finite coordinates, in the model's length unit.
     faces : (F, 3) array_like of int
         Counter-clockwise seen from outside, so normals point outward.
     face_part : (F,) array_like of int, optional
         Index into ``part_names`` for each face (set by booleans and splicing).
     part_names : sequence of str, optional
+        The parts' names, one per index used in ``face_part``.
     attributes : mapping, optional
         The parameters that made the mesh (radius, sides, ...); exporters
         write them as metadata.
@@ -107,17 +117,18 @@ class Mesh:
 
     __slots__ = ("_vertices", "_faces", "_face_part", "_part_names", "_attributes", "__dict__")
 
-    def __init__(self, vertices, faces, *, face_part=None, part_names=(), attributes=None):
+    def __init__(self, vertices: ArrayLike, faces: ArrayLike, *, face_part: ArrayLike | None = None,
+                 part_names: Sequence[str] = (), attributes: Mapping[str, Any] | None = None):
         vertices = as_points(vertices, "vertices", min_count=0)
         faces = np.asarray(faces)
         if faces.size == 0:
             faces = faces.reshape(0, 3)
         if faces.ndim != 2 or faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
-            raise InputError(f"faces: expected an (F, 3) array of vertex indices, got "
-                             f"shape {faces.shape} of {faces.dtype}")
+            raise InputError("expected an (F, 3) array of vertex indices, got "
+                             f"shape {faces.shape} of {faces.dtype}", key="faces")
         if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-            raise InputError(f"faces: indices must lie in [0, {len(vertices) - 1}], "
-                             f"got [{faces.min()}, {faces.max()}]")
+            raise InputError(f"indices must lie in [0, {len(vertices) - 1}], "
+                             f"got [{faces.min()}, {faces.max()}]", key="faces")
         self._vertices = _frozen(vertices, np.float64)
         self._faces = _frozen(faces, np.int64)
         self._part_names = tuple(str(n) for n in part_names)
@@ -126,21 +137,34 @@ class Mesh:
         else:
             face_part = np.asarray(face_part)
             if face_part.shape != (len(faces),):
-                raise InputError(f"face_part: expected {len(faces)} part indices, "
-                                 f"got shape {face_part.shape}")
+                raise InputError(f"expected {len(faces)} part indices, "
+                                 f"got shape {face_part.shape}", key="face_part")
             names = len(self._part_names)
             if face_part.size and not 0 <= face_part.min() <= face_part.max() < names:
-                raise InputError("face_part: indices must point into part_names")
+                raise InputError("indices must point into part_names", key="face_part")
             self._face_part = _frozen(face_part, np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
 
     @classmethod
-    def trusted(cls, vertices, faces, *, face_part=None, part_names=(), attributes=None):
+    def trusted(cls, vertices: np.ndarray, faces: np.ndarray, *,
+                face_part: np.ndarray | None = None, part_names: Sequence[str] = (),
+                attributes: Mapping[str, Any] | None = None) -> Mesh:
         """Wrap arrays a cadpipe stage just built, skipping the input checks.
 
-        ``vertices`` must be finite float64 ``(V, 3)`` and ``faces`` int64 ``(F, 3)``
-        indices into them (``face_part``, if given, indices into ``part_names``);
-        large pipes are built faster than they can be re-checked.
+        Large pipes are built faster than they can be re-checked.
+
+        Parameters
+        ----------
+        vertices : (V, 3) float64
+            Finite coordinates.
+        faces : (F, 3) int64
+            Indices into ``vertices``.
+        face_part, part_names, attributes
+            As for :class:`Mesh` (``face_part`` indices into ``part_names``).
+
+        Returns
+        -------
+        mesh : Mesh
         """
         mesh = cls.__new__(cls)
         mesh._vertices = _frozen(vertices, np.float64)
@@ -152,46 +176,69 @@ class Mesh:
 
     # -- data -----------------------------------------------------------------
     @property
-    def vertices(self):
+    def vertices(self) -> np.ndarray:
         """(V, 3) float64, read-only."""
         return self._vertices
 
     @property
-    def faces(self):
+    def faces(self) -> np.ndarray:
         """(F, 3) int64, read-only."""
         return self._faces
 
     @property
-    def face_part(self):
+    def face_part(self) -> np.ndarray | None:
         """(F,) int32 index into :attr:`part_names`, or None for a single-part mesh."""
         return self._face_part
 
     @property
-    def part_names(self):
+    def part_names(self) -> tuple[str, ...]:
+        """Name of each part that :attr:`face_part` indexes (empty for a single part)."""
         return self._part_names
 
     @property
-    def attributes(self):
+    def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this mesh."""
         return self._attributes
 
     def __repr__(self):
         return f"<cadpipe.Mesh {len(self._vertices)} vertices, {len(self._faces)} faces>"
 
-    def with_parts(self, part_names, face_part=None):
-        """The same geometry labelled with part names (all faces in part 0 by default)."""
+    def with_parts(self, part_names: Sequence[str], face_part: ArrayLike | None = None) -> Mesh:
+        """The same geometry labelled with part names.
+
+        Parameters
+        ----------
+        part_names : sequence of str
+        face_part : (F,) array_like of int, optional
+            Index into ``part_names`` per face; all faces in part 0 by default.
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         if face_part is None:
             face_part = np.zeros(len(self._faces), np.int32)
         return Mesh(self._vertices, self._faces, face_part=face_part,
                     part_names=part_names, attributes=self._attributes)
 
-    def with_attributes(self, **attributes):
+    def with_attributes(self, **attributes: Any) -> Mesh:
+        """The same mesh with ``attributes`` added to (or replacing) its own.
+
+        Parameters
+        ----------
+        **attributes
+            Metadata values, by name.
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         return Mesh(self._vertices, self._faces, face_part=self._face_part,
                     part_names=self._part_names, attributes={**self._attributes, **attributes})
 
     # -- geometry -------------------------------------------------------------
     @cached_property
-    def triangles(self):
+    def triangles(self) -> np.ndarray:
         """(F, 3, 3) corner coordinates."""
         return self._vertices[self._faces]
 
@@ -201,27 +248,35 @@ class Mesh:
         return cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
 
     @cached_property
-    def face_areas(self):
+    def face_areas(self) -> np.ndarray:
+        """(F,) area of each face, in length unit squared."""
         return 0.5 * np.linalg.norm(self._cross, axis=1)
 
     @cached_property
-    def face_normals(self):
-        """Unit normals by the right-hand rule (zero for degenerate faces)."""
+    def face_normals(self) -> np.ndarray:
+        """(F, 3) unit normals by the right-hand rule (zero for degenerate faces)."""
         norm = np.linalg.norm(self._cross, axis=1, keepdims=True)
         return np.divide(self._cross, norm, out=np.zeros_like(self._cross), where=norm > 0)
 
     @cached_property
-    def area(self):
+    def area(self) -> float:
+        """Surface area, in length unit squared."""
         return float(self.face_areas.sum())
 
     @cached_property
-    def volume(self):
-        """Signed volume by the divergence theorem: positive when faces point outward."""
-        t = self.triangles
+    def volume(self) -> float:
+        """Signed volume by the divergence theorem: positive when faces point outward.
+
+        Summed about the vertices' mean, not the origin: far from the origin the
+        tetrahedra's volumes would be huge and cancel, losing every digit.
+        """
+        if len(self._faces) == 0:
+            return 0.0
+        t = self.triangles - self._vertices.mean(axis=0)
         return float(np.einsum("ij,ij->", t[:, 0], cross(t[:, 1], t[:, 2])) / 6.0)
 
     @cached_property
-    def bounds(self):
+    def bounds(self) -> np.ndarray:
         """(2, 3) array: minimum and maximum corner."""
         if len(self._vertices) == 0:
             return np.zeros((2, 3))
@@ -229,12 +284,12 @@ class Mesh:
 
     # -- topology -------------------------------------------------------------
     @cached_property
-    def edges(self):
+    def edges(self) -> np.ndarray:
         """(3F, 2) int64 directed edges: row ``3f + k`` runs from corner k of face f to
         corner k + 1, as trimesh's ``edges``."""
         return self._faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
 
-    def edge_keys(self, a, b):
+    def edge_keys(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
         """One int64 key per undirected edge ``(a, b)``, the same whichever way round.
 
         Parameters
@@ -259,99 +314,153 @@ class Mesh:
                          return_counts=True)
 
     @property
-    def edges_unique(self):
+    def edges_unique(self) -> np.ndarray:
         """(E, 2) int64 undirected edges ``(low, high)``, sorted, each once."""
         return np.stack(np.divmod(self._unique_edges[0], max(len(self._vertices), 1)), axis=1)
 
     @property
-    def edges_unique_inverse(self):
+    def edges_unique_inverse(self) -> np.ndarray:
         """(3F,) int64 row of :attr:`edges_unique` for each row of :attr:`edges`."""
         return self._unique_edges[1].reshape(-1)
 
     @property
-    def edge_face_counts(self):
+    def edge_face_counts(self) -> np.ndarray:
         """(E,) int64 faces on each of :attr:`edges_unique` (1: a hole's rim, > 2:
         non-manifold)."""
         return self._unique_edges[2]
 
-    def edge_index(self, a, b):
-        """(E,) row of :attr:`edges_unique` of each undirected edge ``(a, b)`` of the mesh."""
+    def edge_index(self, a: ArrayLike, b: ArrayLike) -> np.ndarray:
+        """Where undirected edges of the mesh are in :attr:`edges_unique`.
+
+        Parameters
+        ----------
+        a, b : (E,) int array_like
+            Vertex indices of each edge's ends, either way round.
+
+        Returns
+        -------
+        rows : (E,) int64
+            Row of :attr:`edges_unique` per edge.
+        """
         return np.searchsorted(self._unique_edges[0], self.edge_keys(a, b))
 
     @cached_property
-    def is_watertight(self):
+    def is_watertight(self) -> bool:
         """Closed: every edge is shared by exactly two faces (trimesh's meaning; the
         faces' winding is not looked at, see :attr:`is_oriented`)."""
         return bool(len(self._faces) and np.all(self.edge_face_counts == 2))
 
     @cached_property
-    def is_winding_consistent(self):
+    def is_winding_consistent(self) -> bool:
         """No edge is traversed twice in the same direction: neighbouring faces agree."""
         e, (_, row, counts) = self.edges, self._unique_edges
         forward = np.bincount(row.reshape(-1), weights=e[:, 0] < e[:, 1], minlength=len(counts))
         return bool(np.all(forward <= 1) and np.all(counts - forward <= 1))
 
     @cached_property
-    def is_oriented(self):
+    def is_oriented(self) -> bool:
         """Closed and consistently wound: every edge is traversed once each way, so the
         surface has a well-defined inside (what manifold3d and booleans need)."""
         return self.is_watertight and self.is_winding_consistent
 
     @cached_property
-    def is_outward(self):
+    def is_outward(self) -> bool:
         """Oriented with positive volume: a solid whose normals point out."""
         return self.is_oriented and self.volume > 0
 
     @cached_property
-    def body_labels(self):
+    def body_labels(self) -> np.ndarray:
         """(V,) connected-component label of each vertex."""
         e = self.edges
         return connected_labels(len(self._vertices), e[:, 0], e[:, 1])
 
     @cached_property
-    def n_bodies(self):
+    def n_bodies(self) -> int:
         """Number of connected pieces (vertices used by no face are ignored)."""
         if len(self._faces) == 0:
             return 0
         return int(len(np.unique(self.body_labels[self._faces[:, 0]])))
 
     @cached_property
-    def euler_characteristic(self):
+    def euler_characteristic(self) -> int:
         """V - E + F over the vertices that faces use (2 per sphere-like body)."""
         used = len(np.unique(self._faces))
         return int(used - len(self.edge_face_counts) + len(self._faces))
 
     @cached_property
-    def genus(self):
+    def genus(self) -> int:
         """Genus of a closed single-body mesh (0 for a sphere-like tube, 1 for a loop)."""
         return (2 * self.n_bodies - self.euler_characteristic) // 2
 
-    def winding_numbers(self, points):
-        """Generalized winding number of the surface around each point (1 inside, 0 outside)."""
+    def winding_numbers(self, points: ArrayLike) -> np.ndarray:
+        """Generalized winding number of the surface around each point.
+
+        Parameters
+        ----------
+        points : (P, 3) array_like
+
+        Returns
+        -------
+        winding : (P,) float
+            1 inside a closed outward mesh, 0 outside (fractions near the surface).
+        """
         return winding_numbers(self.triangles, as_points(points, "points", min_count=0))
 
-    def contains(self, points):
-        """(P,) bool: which points lie inside this closed mesh (winding number > 1/2)."""
+    def contains(self, points: ArrayLike) -> np.ndarray:
+        """Which points lie inside this closed mesh (winding number above 1/2).
+
+        Parameters
+        ----------
+        points : (P, 3) array_like
+
+        Returns
+        -------
+        inside : (P,) bool
+        """
         return self.winding_numbers(points) > 0.5
 
-    def require_solid(self, name="mesh"):
-        """Raise :class:`MeshError` unless this is a closed, outward, positive-volume solid."""
+    def require_solid(self, name: str = "mesh") -> Mesh:
+        """This mesh, if it is a closed, consistently wound solid of positive volume.
+
+        Parameters
+        ----------
+        name : str
+            What to call the mesh in the error.
+
+        Returns
+        -------
+        mesh : Mesh
+            ``self``.
+
+        Raises
+        ------
+        MeshError
+            Naming what is wrong: holes or non-manifold edges, winding, inward faces.
+        """
         if not self.is_watertight:
-            raise MeshError(f"{name}: not a closed solid (open or non-manifold edges); "
-                            "close the holes or repair it before using it as a solid")
+            raise MeshError("not a closed solid (open or non-manifold edges); "
+                            "close the holes or repair it before using it as a solid", part=name)
         if not self.is_winding_consistent:
-            raise MeshError(f"{name}: neighbouring faces disagree on orientation; "
-                            "make the winding consistent (e.g. trimesh's fix_normals)")
+            raise MeshError("neighbouring faces disagree on orientation; "
+                            "make the winding consistent (e.g. trimesh's fix_normals)", part=name)
         if self.volume <= 0:
-            raise MeshError(f"{name}: faces point inward (volume {self.volume:.6g}); "
-                            "flip its faces")
+            raise MeshError(f"faces point inward (volume {self.volume:.6g}); "
+                            "flip its faces", part=name)
         return self
 
     # -- transforms -----------------------------------------------------------
-    def transformed(self, matrix):
-        """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors)."""
-        from cadpipe.solids.transform import as_matrix
+    def transformed(self, matrix: ArrayLike) -> Mesh:
+        """A copy moved by a 4x4 homogeneous matrix (faces flipped if it mirrors).
 
+        Parameters
+        ----------
+        matrix : (4, 4) array_like
+            Affine placement (see :func:`cadpipe.solids.transform.as_matrix`).
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         matrix = as_matrix(matrix)
         vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
@@ -359,8 +468,19 @@ class Mesh:
                     attributes=self._attributes)
 
     @staticmethod
-    def concatenate(meshes):
-        """One mesh holding all the given meshes' faces; part names are merged in order."""
+    def concatenate(meshes: Iterable[Mesh]) -> Mesh:
+        """One mesh holding all the given meshes' faces.
+
+        Parameters
+        ----------
+        meshes : iterable of Mesh
+            At least one. A mesh without part names counts as part ``part<i>``.
+
+        Returns
+        -------
+        mesh : Mesh
+            Part names merged in first-seen order (equal names become one part).
+        """
         meshes = list(meshes)
         if not meshes:
             raise InputError("concatenate: expected at least one mesh")
@@ -373,17 +493,35 @@ class Mesh:
                     face_part=np.concatenate(face_parts), part_names=names)
 
     # -- other libraries --------------------------------------------------------
-    def to_trimesh(self):
-        """A :class:`trimesh.Trimesh` sharing no state, with ``process=False``."""
+    def to_trimesh(self) -> Any:
+        """This mesh for trimesh.
+
+        Returns
+        -------
+        mesh : trimesh.Trimesh
+            Sharing no state, built with ``process=False`` (vertices as they are).
+        """
         import trimesh
 
         return trimesh.Trimesh(np.array(self._vertices), np.array(self._faces), process=False)
 
     @classmethod
-    def from_trimesh(cls, tm, **kwargs):
+    def from_trimesh(cls, tm: Any, **kwargs: Any) -> Mesh:
+        """A mesh of a :class:`trimesh.Trimesh`'s vertices and faces.
+
+        Parameters
+        ----------
+        tm : trimesh.Trimesh
+        **kwargs
+            Other :class:`Mesh` arguments.
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         return cls(tm.vertices, tm.faces, **kwargs)
 
-    def to_manifold(self, name="mesh", original_id=None):
+    def to_manifold(self, name: str = "mesh", original_id: int | None = None) -> Any:
         """This mesh as a :class:`manifold3d.Manifold`.
 
         Parameters
@@ -414,13 +552,14 @@ class Mesh:
             tri_verts=self._faces.astype(np.uint64), **runs))
         status = solid.status()
         if status != manifold3d.Error.NoError:
-            raise MeshError(f"{name}: not a closed solid (manifold3d: {status.name}); it must "
+            raise MeshError(f"not a closed solid (manifold3d: {status.name}); it must "
                             "be a closed, consistently oriented surface: repair or close it "
-                            "first")
+                            "first", part=name)
         return solid
 
     @classmethod
-    def from_manifold(cls, solid, part_of_id=None, *, part_names=None, **kwargs):
+    def from_manifold(cls, solid: Any, part_of_id: Mapping[int, str] | None = None, *,
+                      part_names: Mapping[int, str] | None = None, **kwargs: Any) -> Mesh:
         """A mesh of a manifold3d solid, its faces labelled by the part they came from.
 
         Parameters
@@ -470,15 +609,37 @@ class Mesh:
         return cls(vertices, faces, face_part=face_part, part_names=names, **kwargs)
 
     # -- files ----------------------------------------------------------------
-    def export(self, path, **options):
-        """Write to ``path``; the format follows the suffix (see :mod:`cadpipe.io.files`)."""
+    def export(self, path: str | os.PathLike, **options: Any) -> Any:
+        """Write the mesh to a file whose format follows the suffix.
+
+        Parameters
+        ----------
+        path : str or path-like
+            ``.stl``, ``.3mf``, ``.usda``/``.usdc``/``.usdz``, ``.glb``, ``.obj``, ``.ply``.
+        **options
+            Format options (see :mod:`cadpipe.io.files`).
+
+        Returns
+        -------
+        path : pathlib.Path
+            The file written.
+        """
         from cadpipe.io.files import export
 
         return export(self, path, **options)
 
     @classmethod
-    def load(cls, path):
-        """Read any mesh format trimesh reads (STL, OBJ, PLY, GLB, 3MF, ...)."""
+    def load(cls, path: str | os.PathLike) -> Mesh:
+        """Read a mesh file in any format trimesh reads (STL, OBJ, PLY, GLB, 3MF, ...).
+
+        Parameters
+        ----------
+        path : str or path-like
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         from cadpipe.io.files import load_mesh
 
         return load_mesh(path)

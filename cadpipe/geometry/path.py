@@ -9,18 +9,26 @@ Segment, tangent and corner geometry is computed by :class:`Polylines` for many
 polylines at once (a splice of a thousand pipes); a :class:`Path` is a batch of one.
 """
 
+from __future__ import annotations
+
 from functools import cached_property
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from cadpipe import limits
 from cadpipe import _deprecated
 from cadpipe._validate import as_points, as_positive
 from cadpipe._vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.ragged import Groups, blocks
+from cadpipe.solids.transform import as_matrix
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
+#: default largest turn, in radians, of one segment of a fillet's arc (5 degrees)
+ARC_STEP = float(np.radians(5.0))
 
 
 class Path:
@@ -37,7 +45,7 @@ class Path:
 
     __slots__ = ("_points", "_xyz", "_closed", "_tolerance", "__dict__")
 
-    def __init__(self, points, closed=False):
+    def __init__(self, points: ArrayLike, closed: bool = False):
         pts = as_points(points, "points", min_count=2)
         xyz = np.ascontiguousarray(pts.T)        # component-first: fast along the path
         extent = float((xyz.max(axis=1) - xyz.min(axis=1)).max())
@@ -50,8 +58,9 @@ class Path:
             pts, xyz = pts[:-1], xyz[:, :-1]
         need = 3 if closed else 2
         if len(pts) < need:
-            raise InputError(f"points: a{' closed' if closed else 'n open'} path needs at least "
-                             f"{need} distinct points, got {len(pts)} after dropping duplicates")
+            raise InputError(f"a{' closed' if closed else 'n open'} path needs at least "
+                             f"{need} distinct points, got {len(pts)} after dropping duplicates",
+                             key="points")
         pts = np.array(pts)                       # our own copy, frozen
         pts.flags.writeable = False
         self._points = pts
@@ -67,12 +76,13 @@ class Path:
         return len(self._points)
 
     @property
-    def points(self):
+    def points(self) -> np.ndarray:
         """(N, 3) float64, read-only."""
         return self._points
 
     @property
-    def closed(self):
+    def closed(self) -> bool:
+        """Whether the last point connects back to the first."""
         return self._closed
 
     # -- derived geometry (the batch-of-one view of :class:`Polylines`) -------
@@ -85,35 +95,37 @@ class Path:
         return np.ascontiguousarray(vectors[:, : len(self._points) - (not self._closed)].T)
 
     @cached_property
-    def segments(self):
+    def segments(self) -> np.ndarray:
         """(M, 3) vectors from each point to the next (M = N - 1, or N when closed)."""
         return self._rows(self._lines.segments)
 
     @cached_property
-    def segment_lengths(self):
+    def segment_lengths(self) -> np.ndarray:
+        """(M,) length of each segment, in path units."""
         return self._lines.segment_lengths[: len(self._points) - (not self._closed)]
 
     @cached_property
-    def directions(self):
+    def directions(self) -> np.ndarray:
         """(M, 3) unit direction of each segment."""
         return self._rows(self._lines.directions)
 
     @cached_property
-    def length(self):
+    def length(self) -> float:
+        """Total length, with the closing segment of a closed path, in path units."""
         return float(self._lines.lengths[0])
 
     @cached_property
-    def arc_length(self):
+    def arc_length(self) -> np.ndarray:
         """(N,) distance along the path from the first point to each point."""
         return self._lines.arc_length
 
     @cached_property
-    def turning_angles(self):
+    def turning_angles(self) -> np.ndarray:
         """(N,) angle in radians between the incoming and outgoing segment at each point."""
         return self._lines.turning_angles
 
     @cached_property
-    def tangents(self):
+    def tangents(self) -> np.ndarray:
         """(N, 3) unit tangents: the bisector of the adjacent segments at interior points.
 
         A ring in the plane normal to the bisector is a miter joint, which keeps a
@@ -123,18 +135,29 @@ class Path:
         return np.ascontiguousarray(self._lines.tangents.T)
 
     @cached_property
-    def bend_directions(self):
+    def bend_directions(self) -> np.ndarray:
         """(N, 3) unit vector in each corner's plane, perpendicular to the tangent
         (zero where the path is straight)."""
         return np.ascontiguousarray(self._lines.bend_directions.T)
 
     # -- new paths -----------------------------------------------------------
-    def resample(self, step):
+    def resample(self, step: float) -> Path:
         """Subdivide every segment into equal pieces no longer than ``step``.
 
         Corners are kept, so a polyline keeps its shape exactly.
+
+        Parameters
+        ----------
+        step : float
+            Longest piece, in path units, > 0.
+
+        Returns
+        -------
+        path : Path
         """
         step = float(as_positive(step, "step"))
+        limits.check("max_samples", float(np.sum(self.segment_lengths / step)),
+                     f"resampling a path {self.length:.6g} long every {step:g}", key="step")
         counts = np.maximum(np.ceil(self.segment_lengths / step).astype(np.int64), 1)
         runs = Groups(counts)
         seg, frac = runs.index, runs.local() / runs.spread(counts)
@@ -151,15 +174,13 @@ class Path:
         counts = np.where(corner, np.maximum(np.ceil(alpha / max_angle), 1).astype(np.int64) + 1, 1)
         return radius, corner, counts
 
-    def fillet_sources(self, bend_radius, max_angle=np.radians(5.0)):
+    def fillet_sources(self, bend_radius: float, max_angle: float = ARC_STEP) -> np.ndarray:
         """Which point of this path each point of :meth:`filleted` comes from.
 
         Parameters
         ----------
-        bend_radius : float
-            Arc radius, in path units, > 0.
-        max_angle : float
-            Largest angle in radians one arc segment turns.
+        bend_radius, max_angle : float
+            The fillet's, as for :meth:`filleted`.
 
         Returns
         -------
@@ -169,7 +190,7 @@ class Path:
         counts = self._fillet_counts(bend_radius, max_angle)[2]
         return np.repeat(np.arange(len(self)), counts)
 
-    def filleted(self, bend_radius, max_angle=np.radians(5.0)):
+    def filleted(self, bend_radius: float, max_angle: float = ARC_STEP) -> Path:
         """This path with each corner rounded by a circular arc of radius ``bend_radius``.
 
         The arc is tangent to both segments and sampled every ``max_angle``
@@ -225,13 +246,14 @@ class Path:
         pts = np.where(corner[source][:, None], arc, p)
         return Path(pts, closed=self._closed)
 
-    def fillet(self, bend_radius, max_angle=np.radians(5.0)):
+    def fillet(self, bend_radius: float,
+               max_angle: float = ARC_STEP) -> tuple[Path, np.ndarray]:
         """Deprecated: ``(filleted(...), fillet_sources(...))``."""
         _deprecated.warn("Path.fillet()", "Path.filleted() and Path.fillet_sources()")
         return (self.filleted(bend_radius, max_angle),
                 self.fillet_sources(bend_radius, max_angle))
 
-    def trimmed(self, start=0.0, end=0.0):
+    def trimmed(self, start: float = 0.0, end: float = 0.0) -> Path:
         """This open path with ``start`` and ``end`` arc length removed from its ends.
 
         Parameters
@@ -258,28 +280,61 @@ class Path:
         pts = np.stack([np.interp(s, arc, self._points[:, c]) for c in range(3)], axis=1)
         return Path(pts)
 
-    def reversed(self):
+    def reversed(self) -> Path:
+        """The same path travelled the other way.
+
+        Returns
+        -------
+        path : Path
+        """
         return Path(self._points[::-1], closed=self._closed)
 
-    def transformed(self, matrix):
-        """The path moved by a 4x4 homogeneous matrix."""
-        from cadpipe.solids.transform import as_matrix
+    def transformed(self, matrix: ArrayLike) -> Path:
+        """The path moved by a 4x4 homogeneous matrix.
 
+        Parameters
+        ----------
+        matrix : (4, 4) array_like
+            Rotation, scale and translation, as :meth:`Mesh.transformed` takes.
+
+        Returns
+        -------
+        path : Path
+        """
         m = as_matrix(matrix)
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
     @classmethod
-    def from_trajectory(cls, robot, configurations, frame, step, base=None):
+    def from_trajectory(cls, robot: Any, configurations: ArrayLike, frame: str, step: float,
+                        base: ArrayLike | None = None) -> Path:
         """The path of a robot ``frame``'s origin over a joint trajectory, sampled so
-        the polyline follows the motion within ``step / 2``; see
-        :func:`cadpipe.collision.trajectory.trajectory_points`."""
+        the polyline follows the motion within ``step / 2``.
+
+        Parameters
+        ----------
+        robot : cadpipe.collision.Robot
+        configurations : (C, A) array_like
+            Joint values along the trajectory, radians or metres.
+        frame : str
+            The link or frame whose origin is followed.
+        step : float
+            Largest deviation allowed, doubled, in metres.
+        base : (4, 4) array_like, optional
+            Placement of the robot's base.
+
+        Returns
+        -------
+        path : Path
+            See :func:`cadpipe.collision.trajectory.trajectory_points`.
+        """
         from cadpipe.collision.trajectory import path_from_trajectory
 
         return path_from_trajectory(robot, configurations, frame, step, base)
 
     @classmethod
-    def spline(cls, points, step=None, *, tolerance=None, closed=False):
+    def spline(cls, points: ArrayLike, step: float | None = None, *,
+               tolerance: float | None = None, closed: bool = False) -> Path:
         """Fit a cubic spline through ``points`` and discretize it.
 
         The spline interpolates every control point (chord-length parameters; periodic
@@ -287,6 +342,21 @@ class Path:
         ``step``, and denser where curvature needs it to keep the chordal deviation
         below ``tolerance``. Without either, ``tolerance`` is 1e-4 of the control
         polygon's extent.
+
+        Parameters
+        ----------
+        points : (K, 3) array_like
+            Control points the curve passes through, K >= 2 (3 when closed).
+        step : float, optional
+            Longest segment, in path units.
+        tolerance : float, optional
+            Largest distance between the curve and its polyline, in path units.
+        closed : bool
+            Fit a periodic curve through the points and back to the first.
+
+        Returns
+        -------
+        path : Path
         """
         from scipy.interpolate import CubicSpline, make_interp_spline
 
@@ -317,7 +387,10 @@ class Path:
         du = np.diff(dense_u)
         ds = 0.5 * (speed[1:] + speed[:-1]) * du
         weight = np.concatenate([[0.0], np.cumsum(0.5 * (density[1:] + density[:-1]) * ds)])
-        n_seg = max(int(np.ceil(weight[-1])), 3 if closed else 1)
+        needed = float(weight[-1]) if np.isfinite(weight[-1]) else np.inf
+        limits.check("max_samples", needed, "this fitted path",
+                     key="step" if np.isfinite(step) else "tolerance")
+        n_seg = max(int(np.ceil(needed)), 3 if closed else 1)
         target = np.linspace(0.0, weight[-1], n_seg + 1)
         samples = curve(np.interp(target, weight, dense_u))
         if closed:
@@ -429,5 +502,5 @@ class Polylines:
         if folds.size:
             i = folds[0]
             local = i - self.groups.first[self.groups.index[i]]
-            raise GeometryError(f"points: the path folds back on itself at point {local} "
-                                f"({self.xyz[:, i].tolist()}); remove the reversal")
+            raise GeometryError(f"the path folds back on itself at point {local} "
+                                f"({self.xyz[:, i].tolist()}); remove the reversal", key="points")

@@ -261,11 +261,12 @@ class Pipe:
     @property
     def attributes(self):
         """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
-        return _deprecated.Attributes({"kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
-                "radius_max": float(self.radii.max()), "path_length": self.path.length,
-                "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
-                "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
-                                      "Pipe.attributes")
+        return _deprecated.Attributes({
+            "kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
+            "radius_max": float(self.radii.max()), "path_length": self.path.length,
+            "path_points": len(self.path), "closed": self.closed, "caps": self.caps,
+            "envelope": self.envelope, "frame": self.frame, "corners": self.corners},
+            "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
     def folds(self):
@@ -304,8 +305,8 @@ class Pipe:
             problems = folds.messages
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
-                                "path, reduce the radius, or leave strict=False to build the "
-                                "swept solid there")
+                                "path, reduce the radius, or build the swept solid instead",
+                                fix={"strict": False})
         return self._swept_mesh(folds)
 
     def surface(self, *, cap_start=True, cap_end=True):

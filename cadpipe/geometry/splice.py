@@ -28,7 +28,7 @@ RINGS_PER_RADIUS = 2.0
 MIN_RINGS = 3
 
 
-def splice(*pipes, transition="lcm", closed=False):
+def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
     """One watertight mesh: the pipes in order, joined by transitions.
 
     Parameters

@@ -116,10 +116,13 @@ def load_mesh(path):
     Scenes are flattened into one mesh. Raises :class:`ExportError` for a missing or
     unreadable file and :class:`MeshError` for one holding no triangles.
     """
-    path = FilePath(path)
-    if not path.is_file():
-        raise ExportError(f"{path}: is a folder, not a mesh file" if path.is_dir() else
-                          f"{path}: no such file")
+    from cadpipe import limits
+    from cadpipe._validate import MAX_MAGNITUDE, as_input_file
+
+    path = as_input_file(path, "mesh file")     # a FIFO or device is never opened
+    limits.check_archive(path)                  # 3MF, USDZ: refuse a zip bomb unopened
+    if path.suffix.lower() == ".stl":           # 50 bytes a triangle in binary, more in text
+        limits.check("max_triangles", path.stat().st_size / 50, "this STL file", file=path)
     import trimesh  # after the check: a wrong name is reported at once
 
     from cadpipe.geometry.mesh import Mesh
@@ -132,9 +135,10 @@ def load_mesh(path):
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise MeshError(f"{path}: the file holds no triangles (empty, truncated or not a "
                         "mesh file)")
-    if not np.isfinite(loaded.vertices).all():
-        raise MeshError(f"{path}: some vertex coordinates are NaN or infinite; the file is "
-                        "corrupt")
+    limits.check("max_triangles", len(loaded.faces), "this mesh file", file=path)
+    if not (np.abs(loaded.vertices) <= MAX_MAGNITUDE).all():
+        raise MeshError(f"{path}: some vertex coordinates are NaN or infinite "
+                        f"(or beyond {MAX_MAGNITUDE:g}); the file is corrupt")
     # files store each triangle's corners separately (STL): weld exact duplicates
     loaded.merge_vertices(merge_tex=True, merge_norm=True)
     return Mesh(loaded.vertices, loaded.faces, attributes={"source": str(path)})

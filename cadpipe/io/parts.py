@@ -2,39 +2,87 @@
 
 Each is a thin function from a spec table to an API object: its keyword
 parameters are the table's keys and their annotations the accepted types (see
-:mod:`cadpipe.io.spec`). They are found through the ``cadpipe.io.parts`` entry points
-declared in ``pyproject.toml``.
+:mod:`cadpipe.io.spec`). The keys of ``pipe``, ``box``, ``cylinder``, ``sphere`` and
+``mesh`` are derived from the signature of the API call they make
+(:class:`~cadpipe.Pipe`, :mod:`cadpipe.solids.primitives`), so every option of the
+API is a spec key under the same name, and a new option appears in specs without
+an edit here. :data:`SPEC_TYPES` says which values a spec may give for the known
+keys; a key it does not list takes any value and is checked by the API itself.
+They are registered in :data:`cadpipe.io.registry.part_kinds` by
+:mod:`cadpipe.io.registry` itself, so they exist without installing the package.
 """
 
-from cadpipe.solids import primitives
+import inspect
+
 from cadpipe._validate import as_positive
-from cadpipe.errors import InputError
-from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
+from cadpipe.errors import CadpipeError, InputError
 from cadpipe.geometry.pipe import Pipe
-from cadpipe.io.spec import Number
 from cadpipe.geometry.splice import splice
+from cadpipe.io.spec import Number
+from cadpipe.solids import primitives
+from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
+
+#: the values a spec may give for an API argument of this name
+SPEC_TYPES = {
+    "path": list | str | dict, "radius": Number | list, "sides": int | None,
+    "tolerance": Number | None, "caps": str, "envelope": bool, "corners": str,
+    "bend_radius": Number | None, "frame": str, "normal": list | None,
+    "end_normal": list | None, "miter_limit": Number, "cap_segments": int | None,
+    "repair": bool, "strict": bool, "size": Number | list, "center": bool,
+    "height": Number, "segments": int, "file": str, "snap_tolerance": Number | None,
+    "wall": Number | None, "ends": str | list,
+}
 
 
-def pipe(ctx, *, path: list | str | dict, radius: Number | list, sides: int | None = None,
-         tolerance: Number | None = None, caps: str = "flat", envelope: bool = False,
-         corners: str = "miter", bend_radius: Number | None = None, frame: str = "rmf",
-         wall: Number | None = None, ends: str | list = "open", miter_limit: Number = 4.0,
-         strict: bool = False):
-    """A tube along ``path``; hollow with walls ``wall`` thick when ``wall`` is given."""
-    tube = Pipe(ctx.path(path), radius, sides, tolerance=tolerance, caps=caps,
-                envelope=envelope, corners=corners, bend_radius=bend_radius, frame=frame,
-                miter_limit=miter_limit, strict=strict)
+def _keys(api, extra=()):
+    """Keyword-only spec parameters mirroring ``api``'s public arguments, plus ``extra``."""
+    found = [inspect.Parameter(p.name, inspect.Parameter.KEYWORD_ONLY, default=p.default,
+                               annotation=SPEC_TYPES.get(p.name, inspect.Parameter.empty))
+             for p in inspect.signature(api).parameters.values()
+             if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+             and not p.name.startswith("_")]
+    return found + list(extra)
+
+
+def _kind(api, build, extra=()):
+    """A part kind for ``build(ctx, **keys)`` whose keys are ``api``'s arguments."""
+    def kind(ctx, **keys):
+        return build(ctx, **keys)
+
+    context = inspect.Parameter("ctx", inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    kind.__signature__ = inspect.Signature([context, *_keys(api, extra)])
+    kind.__name__ = kind.__qualname__ = getattr(api, "__name__", "kind").lower()
+    kind.__doc__ = build.__doc__
+    return kind
+
+
+def _hollow_keys():
+    return (inspect.Parameter("wall", inspect.Parameter.KEYWORD_ONLY, default=None,
+                              annotation=SPEC_TYPES["wall"]),
+            inspect.Parameter("ends", inspect.Parameter.KEYWORD_ONLY, default="open",
+                              annotation=SPEC_TYPES["ends"]))
+
+
+def _pipe(ctx, *, path, wall=None, ends="open", **options):
+    """A tube along ``path`` (any :class:`~cadpipe.Pipe` argument is a key); hollow with
+    walls ``wall`` thick when ``wall`` is given."""
+    tube = Pipe(ctx.path(path), **options)
     if wall is None:
         if ends != "open":
-            raise InputError("ends: only a hollow pipe has open or closed ends; give wall too")
+            raise InputError("only a hollow pipe has open or closed ends; give wall too",
+                             key="ends")
         return tube
     return HollowPipe(tube, wall, ends)
+
+
+pipe = _kind(Pipe, _pipe, _hollow_keys())
 
 
 def _pipe_tables(ctx, tables, shared):
     """Each table of ``pipes`` as a ``pipe`` part, its missing keys taken from ``shared``."""
     if not tables:
-        raise InputError("pipes: expected at least one pipe table")
+        raise InputError("expected at least one pipe table", key="pipes")
+    shared = {k: v for k, v in shared.items() if v is not None}
     return [ctx.call(pipe, {**shared, **entry} if isinstance(entry, dict) else entry,
                      f"pipes[{i}]") for i, entry in enumerate(tables)]
 
@@ -57,26 +105,34 @@ def chain(ctx, *, pipes: list, transition: str = "lcm", closed: bool = False,
     tubes = _pipe_tables(ctx, pipes, {"sides": sides, "caps": caps})
     for i, tube in enumerate(tubes):
         if not isinstance(tube, Pipe):
-            raise InputError(f"pipes[{i}].wall: give the wall on the chain, not on its pipes")
+            raise InputError("give the wall on the chain, not on its pipes",
+                             key=f"pipes[{i}].wall")
     if wall is None:
         if ends != "open":
-            raise InputError("ends: only a hollow chain has open or closed ends; give wall too")
+            raise InputError("only a hollow chain has open or closed ends; give wall too",
+                             key="ends")
         return splice(*tubes, transition=transition, closed=closed)
     return HollowChain(*tubes, wall=wall, ends=ends, transition=transition, closed=closed)
 
 
-def box(ctx, *, size: Number | list, center: bool = True):
-    return primitives.box(size, center)
-
-
-def cylinder(ctx, *, radius: Number, height: Number, sides: int = 32, center: bool = True):
-    return primitives.cylinder(radius, height, sides, center)
-
-
-def sphere(ctx, *, radius: Number, segments: int = 32):
-    return primitives.sphere(radius, segments)
-
-
-def mesh(ctx, *, file: str, snap_tolerance: Number | None = None):
+def _mesh(ctx, *, file, **options):
     """A closed solid read from a mesh file in the spec's folder."""
-    return primitives.imported(ctx.file_path(file, "file"), snap_tolerance)
+    try:
+        return primitives.imported(ctx.file_path(file, "file"), **options)
+    except CadpipeError as exc:      # about the mesh file: name it at the spec's key
+        if exc.key or not exc.file:
+            raise
+        raise type(exc)(f"{file}: {exc.message}", key="file") from None
+
+
+box = _kind(primitives.box, lambda ctx, **keys: primitives.box(**keys))
+cylinder = _kind(primitives.cylinder, lambda ctx, **keys: primitives.cylinder(**keys))
+sphere = _kind(primitives.sphere, lambda ctx, **keys: primitives.sphere(**keys))
+mesh = _kind(primitives.imported, _mesh)
+mesh.__signature__ = mesh.__signature__.replace(parameters=[
+    p.replace(name="file", annotation=str) if p.name == "path" else p
+    for p in mesh.__signature__.parameters.values()])
+
+#: every built-in kind by its spec name
+KINDS = {"pipe": pipe, "junction": junction, "chain": chain, "box": box,
+         "cylinder": cylinder, "sphere": sphere, "mesh": mesh}

@@ -386,7 +386,7 @@ def _glb(drawn, view, up_axis):
 def _parts_table(drawn):
     rows = []
     for label, name in enumerate(drawn.names):
-        color = "#%02x%02x%02x" % _rgb255(drawn.color(label))
+        color = "#{:02x}{:02x}{:02x}".format(*_rgb255(drawn.color(label)))
         count = int(np.count_nonzero(drawn.mesh.face_part == label))
         mark = " <strong>highlighted</strong>" if drawn.marked[label] else ""
         rows.append(f'<tr><td><span class="swatch" style="background:{color}"></span>'

@@ -1,53 +1,93 @@
 """Named, pluggable stages: part kinds and exporters.
 
-cadpipe's own entries register through the same entry-point groups a third-party
-package uses (``cadpipe.io.parts``, ``cadpipe.io.files``), so a plugin's part kind or
-file format is found by name exactly like a built-in one.
+cadpipe's own entries are registered here in code, so they exist whenever the
+package imports (installed or run from a source tree on ``PYTHONPATH``). Entry
+points only add plugins: a third-party package declares its part kinds and file
+formats in the ``cadpipe.parts`` and ``cadpipe.exporters`` groups, and they are
+found by name exactly like a built-in one (a plugin cannot replace a built-in).
+
+The table is filled once, under a lock, and published only when complete, so
+threads that look names up on a cold start all see every entry.
 """
 
+import threading
+from importlib import import_module
 from importlib.metadata import entry_points
 
-from cadpipe.errors import InputError
+from cadpipe.errors import InputError, shown
 
 
 class Registry:
-    """A name -> object table filled from an entry-point group on first lookup."""
+    """A name -> object table: built-ins named in code, plugins from an entry-point group.
 
-    def __init__(self, group, what):
+    Parameters
+    ----------
+    group : str
+        The entry-point group plugins register in.
+    what : str
+        What an entry is, for messages ("part kind").
+    builtins : dict
+        Name -> ``"module:attribute"`` of cadpipe's own entries, imported on first use
+        (the modules import the registry, so they cannot be imported here).
+    """
+
+    def __init__(self, group, what, builtins):
         self.group = group
         self.what = what
-        self._items = {}
-        self._loaded = False
+        self._builtins = dict(builtins)
+        self._extra = {}
+        self._items = None            # the complete table, once loaded
+        self._lock = threading.RLock()   # importing a built-in may look names up
 
     def register(self, name, obj=None):
         """Register ``obj`` under ``name``; usable as a decorator when ``obj`` is omitted."""
         if obj is None:
             return lambda o: self.register(name, o)
-        self._items[name] = obj
+        with self._lock:
+            self._extra[name] = obj
+            if self._items is not None:
+                self._items = {**self._items, name: obj}
         return obj
 
-    def _load(self):
-        if not self._loaded:
-            self._loaded = True
-            for ep in entry_points(group=self.group):
-                self._items.setdefault(ep.name, ep.load())
+    def _table(self):
+        items = self._items
+        if items is not None:
+            return items
+        with self._lock:
+            if self._items is None:
+                table = {}
+                for name, target in self._builtins.items():
+                    module, _, attribute = target.partition(":")
+                    table[name] = getattr(import_module(module), attribute)
+                for ep in entry_points(group=self.group):
+                    if ep.name not in table:
+                        table[ep.name] = ep.load()
+                table.update(self._extra)
+                self._items = table       # published whole
+            return self._items
 
     def names(self):
-        self._load()
-        return sorted(self._items)
+        return sorted(self._table())
 
     def get(self, name):
-        self._load()
         try:
-            return self._items[name]
-        except KeyError:
-            raise InputError(f"unknown {self.what} {name!r}; known: {', '.join(self.names())}") \
-                from None
+            return self._table()[name]
+        except (KeyError, TypeError):
+            raise InputError(f"unknown {self.what} {shown(name)}; known: "
+                             f"{', '.join(self.names())}") from None
 
     def __contains__(self, name):
-        self._load()
-        return name in self._items
+        try:
+            return name in self._table()
+        except TypeError:
+            return False
 
 
-part_kinds = Registry("cadpipe.parts", "part kind")
-exporters = Registry("cadpipe.exporters", "output format")
+part_kinds = Registry("cadpipe.parts", "part kind", {
+    name: f"cadpipe.io.parts:{name}"
+    for name in ("pipe", "junction", "chain", "box", "cylinder", "sphere", "mesh")})
+exporters = Registry("cadpipe.exporters", "output format", {
+    "stl": "cadpipe.io.stl:write_stl", "usda": "cadpipe.io.usd:write_usd",
+    "usdc": "cadpipe.io.usd:write_usd", "usdz": "cadpipe.io.usd:write_usd",
+    "3mf": "cadpipe.io.threemf:write_3mf", "glb": "cadpipe.io.trimesh_formats:write_glb",
+    "obj": "cadpipe.io.trimesh_formats:write_obj", "ply": "cadpipe.io.trimesh_formats:write_ply"})

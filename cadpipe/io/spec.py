@@ -10,26 +10,36 @@ functions; nothing in it is executed.
 A part kind is a function ``kind(ctx, *, key=default, ...)``: its keyword
 parameters are the keys a spec may give, and their annotations the accepted
 types, so unknown keys, missing keys and wrong types are reported before the
-function runs, as ``SpecError("<file>: parts[3].radius: ...")``. Errors the
-function raises about an argument (messages starting ``"radius: "``) get the
-same key path. ``ctx`` (:class:`SpecContext`) resolves files and paths relative
-to the spec's folder.
+function runs. Errors carry their key as a field (``InputError(..., key="radius")``);
+each table the loader descends into prefixes its own key with
+:meth:`~cadpipe.errors.CadpipeError.at` as the error passes outward, so every error
+reads ``<file>: parts[3].radius: ...``, whichever layer raised it. ``ctx``
+(:class:`SpecContext`) resolves files and paths relative to the spec's folder.
+
+What a spec may touch: it reads the files it names (CSV paths, meshes, URDF/SRDF),
+relative to its folder or absolute, and only regular files; it writes only its
+``outputs``, which must lie inside the output folder (the spec's folder unless the
+caller names another): absolute names, ``..`` and links that lead out are refused.
 """
 
 import inspect
 import json
+import os
 import re
 import tomllib
 import typing
-from contextlib import contextmanager
 from dataclasses import dataclass, field
-from pathlib import Path as FilePath
+from pathlib import Path as FilePath, PurePath
 
 import numpy as np
 
-from cadpipe._validate import as_choice
-from cadpipe.errors import CadpipeError, InputError, SpecError
+from cadpipe import limits
+from cadpipe._validate import as_choice, as_input_file
+from cadpipe.errors import CadpipeError, InputError, LimitError, SpecError, shown
 from cadpipe.solids.transform import as_matrix, placement
+
+if typing.TYPE_CHECKING:
+    from cadpipe.solids.assembly import Assembly
 
 #: annotation for a number in a part kind's signature (TOML and JSON keep ints apart)
 Number = int | float
@@ -37,6 +47,7 @@ Number = int | float
 _TYPE_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "a string",
                list: "a list", dict: "a table"}
 _COMMON_KEYS = ("name", "kind", "op", "color", "transform")
+_CONTROL = re.compile(r"[\x00-\x1f\x7f]")
 
 
 def _describe(annotation):
@@ -55,53 +66,49 @@ def _accepts(value, annotation):
     return isinstance(value, allowed)
 
 
+def _located(exc, key):
+    """``exc`` as a spec error about ``key`` (relative to the enclosing table).
+
+    A :class:`LimitError` stays one (the caller may raise the limit); any other
+    cadpipe error becomes a :class:`SpecError` with the same fields.
+    """
+    if not isinstance(exc, (SpecError, LimitError)):
+        moved = SpecError(exc.message, key=exc.key, part=exc.part, file=exc.file,
+                          index=exc.index, fix=exc.fix)
+        moved.in_spec, moved._part_located = exc.in_spec, exc._part_located
+        moved.__cause__, moved.__suppress_context__ = exc.__cause__, True
+        exc = moved
+    return exc.at(key or None, spec=True)
+
+
 class SpecContext:
     """What a part kind gets besides its keys: the spec's file and folder, and helpers
     that resolve files and paths there and validate nested tables the same way."""
 
-    def __init__(self, file, where=""):
+    def __init__(self, file, output_folder=None, budgets=None):
         self.file = FilePath(file)
+        self.budgets = dict(budgets or {})      # the caller's, over the spec's own
         self.folder = self.file.parent
-        self.where = where
-
-    def _key(self, key):
-        if not key or not self.where:
-            return key or self.where
-        return f"{self.where}.{key}"
+        self.output_folder = self.folder if output_folder is None else FilePath(output_folder)
 
     def error(self, key, message):
-        """A :class:`SpecError` about ``key`` (relative to this context; "" for itself)."""
-        where = self._key(key)
-        return SpecError(f"{self.file}: {where}: {message}" if where else
-                         f"{self.file}: {message}")
-
-    @contextmanager
-    def keyed(self, key, table=()):
-        """Report a :class:`CadpipeError` raised inside as being about ``key``.
-
-        A message that starts with one of ``table``'s keys (``"radius: ..."``, or
-        ``"pipes[1].wall: ..."``) is reported at that key, ``key.radius``.
-        """
-        try:
-            yield
-        except SpecError:
-            raise
-        except CadpipeError as exc:
-            text = str(exc)
-            head, sep, rest = text.partition(": ")
-            if sep and re.split(r"[.\[]", head, maxsplit=1)[0] in table:
-                raise self.error(f"{key}.{head}" if key else head, rest) from None
-            raise self.error(key, text) from None
+        """A :class:`SpecError` about ``key`` of the table being read ("" for itself)."""
+        return SpecError(message, key=key or None)
 
     def call(self, func, table, key="", ignore=()):
         """``func(ctx, **table)`` after checking ``table`` against ``func``'s signature.
 
-        ``key`` names the table in error messages; keys in ``ignore`` are allowed but
-        not passed on.
+        ``key`` names the table; any cadpipe error raised inside gets it prefixed to
+        its key path. Keys in ``ignore`` are allowed but not passed on.
         """
-        child = SpecContext(self.file, self._key(key))
+        try:
+            return self._call(func, table, ignore)
+        except CadpipeError as exc:
+            raise _located(exc, key) from exc.__cause__
+
+    def _call(self, func, table, ignore):
         if not isinstance(table, dict):
-            raise child.error("", f"expected a table, got {table!r}")
+            raise self.error("", f"expected a table, got {shown(table)}")
         params = list(inspect.signature(func, eval_str=True).parameters.values())[1:]
         named = {p.name: p for p in params if p.kind is p.KEYWORD_ONLY}
         open_ended = any(p.kind is p.VAR_KEYWORD for p in params)
@@ -112,22 +119,41 @@ class SpecContext:
                 if open_ended:
                     continue
                 known = ", ".join(sorted(set(named) | set(ignore)))
-                raise child.error(name, f"unknown key; expected one of: {known}")
+                raise self.error(name, f"unknown key; expected one of: {known}")
             if not _accepts(value, named[name].annotation):
-                raise child.error(name, f"expected {_describe(named[name].annotation)}, "
-                                        f"got {value!r}")
+                raise self.error(name, f"expected {_describe(named[name].annotation)}, "
+                                       f"got {shown(value)}")
         for name, p in named.items():
             if p.default is p.empty and name not in table:
-                raise child.error(name, f"missing; expected {_describe(p.annotation)}")
-        with child.keyed("", table):
-            return func(child, **{k: v for k, v in table.items() if k not in ignore})
+                raise self.error(name, f"missing; expected {_describe(p.annotation)}")
+        return func(self, **{k: v for k, v in table.items() if k not in ignore})
 
     def file_path(self, value, key):
-        """An existing file named by ``value``, relative to the spec's folder."""
-        path = self.folder / value
-        if not path.is_file():
-            raise InputError(f"{key}: no such file {value!r} in {self.folder}")
-        return path
+        """An existing regular file named by ``value``, relative to the spec's folder."""
+        if not isinstance(value, str) or not value or "\x00" in value:
+            raise InputError(f"expected a file name, got {shown(value)}", key=key)
+        return as_input_file(self.folder / value, key=key, shown_as=value)
+
+    def output_path(self, value, key):
+        """Where output ``value`` goes: inside :attr:`output_folder`, never outside it.
+
+        Absolute names, ``..`` and names with control characters are refused, and so
+        is a name whose existing folders or file are links leading out of the folder.
+        """
+        if not value or _CONTROL.search(value):
+            raise InputError(f"expected a file name without control characters, got "
+                             f"{shown(value)}", key=key)
+        name = PurePath(value)
+        if name.is_absolute() or ".." in name.parts:
+            raise InputError(f"{shown(value)} leaves the output folder; a spec writes only "
+                             f"inside {self.output_folder} (give a name relative to it)",
+                             key=key)
+        target = self.output_folder / name
+        root = self.output_folder.resolve()
+        if not target.resolve().is_relative_to(root):
+            raise InputError(f"{shown(value)} is a link leading out of the output folder "
+                             f"{self.output_folder}; a spec writes only inside it", key=key)
+        return target
 
     def path(self, value, key="path"):
         """A :class:`cadpipe.Path` from a list of points, a CSV file name, or a table."""
@@ -135,9 +161,12 @@ class SpecContext:
 
         if isinstance(value, dict):
             return self.call(_path_table, value, key)
-        if isinstance(value, str):
-            return Path(_csv_points(self.file_path(value, key), key))
-        return Path(_points(value, key))
+        points = _csv_points(self.file_path(value, key), key) if isinstance(value, str) \
+            else _points(value, key)
+        try:
+            return Path(points)
+        except CadpipeError as exc:
+            raise exc.at(key) from exc.__cause__
 
 
 def _points(value, key):
@@ -146,22 +175,45 @@ def _points(value, key):
     return as_points(value, key, min_count=2)
 
 
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _csv_points(file, key):
-    """Rows ``x,y,z`` of a CSV file; a header row and ``#`` comments are skipped."""
+    """Rows ``x,y,z`` of a CSV file (UTF-8, a byte-order mark allowed).
+
+    ``#`` comments and blank lines are skipped; the first row is a header when a
+    field of it is not a number. Any other row must hold three finite numbers: a row
+    with NaN or inf is an error naming its line, never taken for a header.
+    """
     try:
-        text = file.read_text(encoding="utf-8")
+        text = file.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
-        raise InputError(f"{key}: {file.name}: not a text file; expected rows of x,y,z "
-                         "numbers") from None
-    rows = [line for line in text.splitlines()
-            if line.strip() and not line.lstrip().startswith("#")]
-    if rows and any(c.isalpha() for c in rows[0].replace("e", "").replace("E", "")):
-        rows = rows[1:]
+        raise InputError(f"{file.name}: not a text file; expected rows of x,y,z numbers",
+                         key=key) from None
+    lines = [(n, line) for n, line in enumerate(text.splitlines(), 1)
+             if line.strip() and not line.lstrip().startswith("#")]
+    if lines and not all(_is_number(f) for f in lines[0][1].split(",")):
+        lines = lines[1:]                          # a header: some field is not a number
     try:
-        points = np.loadtxt(rows, delimiter=",", ndmin=2)
+        points = np.loadtxt([line for _, line in lines], delimiter=",", ndmin=2)
     except ValueError as exc:
-        raise InputError(f"{key}: {file.name}: expected rows of x,y,z numbers ({exc})") from None
-    return _points(points, f"{key}: {file.name}")
+        raise InputError(f"{file.name}: expected rows of x,y,z numbers ({exc})",
+                         key=key) from None
+    if points.ndim == 2 and points.shape[1] == 3 and len(points):
+        bad = ~np.isfinite(points).all(axis=1)
+        if bad.any():
+            row = int(np.argmax(bad))
+            raise InputError(f"{file.name}: line {lines[row][0]} is not three finite numbers "
+                             f"({shown(lines[row][1])})", key=key, index=row)
+    try:
+        return _points(points, None)
+    except CadpipeError as exc:
+        raise InputError(f"{file.name}: {exc.message}", key=key, index=exc.index) from None
 
 
 def _path_table(ctx, *, points: list | str, closed: bool = False, spline: bool = False,
@@ -174,8 +226,8 @@ def _path_table(ctx, *, points: list | str, closed: bool = False, spline: bool =
     if spline:
         return Path.spline(pts, step, tolerance=tolerance, closed=closed)
     if step is not None or tolerance is not None:
-        raise InputError(f"{'step' if step is not None else 'tolerance'}: only a fitted path "
-                         "has one; add spline = true")
+        raise InputError("only a fitted path has one; add spline = true",
+                         key="step" if step is not None else "tolerance")
     return Path(pts, closed=closed)
 
 
@@ -206,7 +258,7 @@ def _output(ctx, *, file: str, mode: str | None = None):
 
     if mode is not None:
         as_choice(mode, "mode", EXPORT_MODES)
-    return ctx.folder / file, mode
+    return ctx.output_path(file, "file"), mode
 
 
 @dataclass(frozen=True)
@@ -245,29 +297,69 @@ class Cell:
 class Spec:
     """A read spec: its file, the assembly it describes (the parts, then the robot's
     posed links), its outputs as ``(path, mode)`` pairs (mode None: chosen by the
-    suffix), and its :class:`Cell`."""
+    suffix), its :class:`Cell`, the key path of each part by name, and the budgets
+    it sets (``max_triangles``, ... as :func:`cadpipe.limits.using` takes them)."""
 
     file: FilePath
     assembly: object
     outputs: tuple
     cell: Cell
+    part_keys: dict = field(default_factory=dict)
+    budgets: dict = field(default_factory=dict)
+
+    def locate(self, exc: CadpipeError) -> CadpipeError:
+        """``exc``, raised later about one of this spec's parts, at that part's key."""
+        return exc.at(self.part_keys.get(exc.part), part=exc.part, file=self.file,
+                      spec=exc.part in self.part_keys)
 
 
 def _parse(file):
-    if not file.is_file():
-        raise SpecError(f"{file}: is a folder, not a spec file" if file.is_dir() else
-                        f"{file}: no such spec file")
-    suffix = file.suffix.lower()
+    """The spec file's table, refusing what would exhaust the parser: a file larger
+    than a spec can be, numbers too long to convert, nesting too deep to walk."""
+    if not file.exists() and not file.is_symlink():
+        raise SpecError("no such spec file", file=file)
     try:
-        if suffix == ".toml":
-            with open(file, "rb") as fh:
-                return tomllib.load(fh)
-        if suffix == ".json":
-            with open(file, encoding="utf-8") as fh:
-                return json.load(fh)
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise SpecError(f"{file}: not valid {suffix[1:].upper()}: {exc}") from None
-    raise SpecError(f"{file}: unknown spec format {file.suffix!r}; use .toml or .json")
+        file = as_input_file(file, "spec file")
+    except CadpipeError as exc:
+        raise SpecError(exc.message, file=exc.file) from None
+    size = file.stat().st_size
+    limits.check("max_spec_bytes", size, "reading this spec", file=file)
+    suffix = file.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise SpecError(f"unknown spec format {shown(file.suffix)}; use .toml or .json",
+                        file=file)
+    raw = file.read_bytes()
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise SpecError(f"not valid {suffix[1:].upper()}: not UTF-8 text ({exc.reason} at "
+                        f"byte {exc.start})", file=file) from None
+    longest = max((len(m) for m in re.findall(r"[0-9][0-9_]*", text)), default=0)
+    limits.check("max_number_chars", longest, "a number in this spec", file=file)
+    try:
+        data = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
+    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+        raise SpecError(f"not valid {suffix[1:].upper()}: {exc}", file=file) from None
+    except RecursionError:
+        data = None
+    depth = _depth(data) if data is not None else limits.current().max_depth + 1
+    limits.check("max_depth", depth, "this spec's nesting of tables and lists", at_least=True,
+                 file=file)
+    return data
+
+
+def _depth(data):
+    """How deeply lists and tables nest in ``data`` (without recursion)."""
+    deepest, stack = 0, [(data, 0)]
+    while stack:
+        value, level = stack.pop()
+        if isinstance(value, (dict, list)):
+            deepest = max(deepest, level + 1)
+            if deepest > limits.current().max_depth:
+                return deepest
+            stack.extend((v, level + 1) for v in (value.values() if isinstance(value, dict)
+                                                   else value))
+    return deepest
 
 
 def _robot(ctx, *, urdf: str, srdf: str | None = None, joints: list | dict | None = None,
@@ -277,15 +369,19 @@ def _robot(ctx, *, urdf: str, srdf: str | None = None, joints: list | dict | Non
     from cadpipe.collision.robot import Robot
     from cadpipe.solids.transform import is_rigid
 
+    files = {"urdf": ctx.file_path(urdf, "urdf"),
+             "srdf": None if srdf is None else ctx.file_path(srdf, "srdf")}
     try:
-        robot = Robot.from_urdf(ctx.file_path(urdf, "urdf"),
-                                None if srdf is None else ctx.file_path(srdf, "srdf"))
-    except SpecError as exc:          # about the URDF or SRDF file: keep its own wording
-        raise InputError(str(exc)) from None
+        robot = Robot.from_urdf(files["urdf"], files["srdf"])
+    except SpecError as exc:          # about the URDF or SRDF file: name it in the message
+        key = "srdf" if exc.file and files["srdf"] and exc.file == str(files["srdf"]) \
+            else "urdf"
+        raise InputError(f"{exc.file}: {exc.message}" if exc.file else exc.message,
+                         key=key) from None
     base = _matrix(ctx, transform)
     if base is not None and not is_rigid(base):
-        raise InputError("transform: a robot's base only rotates and translates; "
-                         "remove scale")
+        raise InputError("a robot's base only rotates and translates; remove scale",
+                         key="transform")
     values = dict(zip((j.name for j in robot.joints), robot.joint_array(joints)[0].tolist()))
     return PosedRobot(robot, {k: values[k] for k in robot.actuated}, base,
                       robot.name if group is None else group, color)
@@ -301,22 +397,33 @@ def _check(ctx, *, stop_after_self: bool = False, certify: bool = False):
 
 
 def _add_parts(ctx, assembly, parts):
-    """Each table of ``parts`` built by its kind and added to ``assembly``."""
+    """Each table of ``parts`` built by its kind and added to ``assembly``; returns the
+    key path of each part by name."""
     from cadpipe.io.registry import part_kinds
 
+    limits.check("max_parts", len(parts), f"a spec of {len(parts):,} parts", key="parts")
+    keys, triangles = {}, 0
     for i, entry in enumerate(parts):
         key = f"parts[{i}]"
         if not isinstance(entry, dict):
-            raise ctx.error(key, f"expected a table, got {entry!r}")
+            raise ctx.error(key, f"expected a table, got {shown(entry)}")
         kind = entry.get("kind")
         common = {k: v for k, v in entry.items() if k in _COMMON_KEYS}
         place = ctx.call(_placement, common, key)
-        with ctx.keyed(f"{key}.kind"):
+        try:
             build = part_kinds.get(kind)
+        except CadpipeError as exc:
+            raise _located(exc, f"{key}.kind") from None
         obj = ctx.call(build, entry, key, ignore=_COMMON_KEYS)
-        with ctx.keyed(key, common):
-            getattr(assembly, place["op"])(place["name"] or f"{kind}-{i}", obj,
-                                           place["transform"], place["color"])
+        name = place["name"] or f"{kind}-{i}"
+        triangles += limits.estimated_triangles(obj)
+        try:
+            limits.check("max_triangles", triangles, f"the parts so far ({i + 1} of {len(parts)})")
+            getattr(assembly, place["op"])(name, obj, place["transform"], place["color"])
+        except CadpipeError as exc:
+            raise _located(exc, key) from None
+        keys[name] = key
+    return keys
 
 
 def _add_robot(ctx, assembly, table):
@@ -343,7 +450,7 @@ def _allowed_pairs(ctx, tables, names):
         for end, which in zip(pair[:2], "ab"):
             if end not in names:
                 raise ctx.error(f"{key}.{which}",
-                                f"unknown object {end!r}; objects (added parts and robot "
+                                f"unknown object {shown(end)}; objects (added parts and robot "
                                 f"links): {', '.join(sorted(names))}")
         if pair[0] == pair[1]:
             raise ctx.error(f"{key}.b", "an object cannot collide with itself")
@@ -353,16 +460,20 @@ def _allowed_pairs(ctx, tables, names):
 
 def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
           outputs: list = (), robot: dict | None = None, allow: list = (),
-          check: dict | None = None):
+          check: dict | None = None, max_triangles: int | None = None,
+          max_samples: int | None = None, max_parts: int | None = None):
     """The top-level table: an :class:`~cadpipe.Assembly`, its outputs and its cell."""
     from cadpipe.solids.assembly import Assembly
 
+    given = {"max_triangles": max_triangles, "max_samples": max_samples, "max_parts": max_parts}
+    budgets = {k: v for k, v in {**given, **ctx.budgets}.items() if v is not None}
     if not parts and robot is None:
-        raise InputError("parts: expected at least one part")
-    assembly = Assembly(units=units, name=name or ctx.file.stem)
-    _add_parts(ctx, assembly, parts)
-    objects = tuple(p.name for p in assembly.parts if p.op == "add")
-    posed = None if robot is None else _add_robot(ctx, assembly, robot)
+        raise InputError("expected at least one part", key="parts")
+    with limits.using(**budgets):
+        assembly = Assembly(units=units, name=name or ctx.file.stem)
+        part_keys = _add_parts(ctx, assembly, parts)
+        objects = tuple(p.name for p in assembly.parts if p.op == "add")
+        posed = None if robot is None else _add_robot(ctx, assembly, robot)
     names = set(objects) | set(posed.robot.link_meshes if posed else ())
     cell = Cell(objects, posed, _allowed_pairs(ctx, allow, names),
                 ctx.call(_check, {} if check is None else check, "check"))
@@ -370,18 +481,50 @@ def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
     for i, out in enumerate(outputs):
         made.append(ctx.call(_output, {"file": out} if isinstance(out, str) else out,
                              f"outputs[{i}]"))
-    return Spec(ctx.file, assembly, tuple(made), cell)
+    return Spec(ctx.file, assembly, tuple(made), cell, part_keys, budgets)
 
 
-def read(spec_path):
+def read(spec_path, *, output_folder=None, **budgets):
     """Read a TOML or JSON spec into a :class:`Spec` (assembly, outputs and cell).
 
-    Raises :class:`SpecError` naming the file, the key path and what was expected.
+    Parameters
+    ----------
+    spec_path : str or path
+        The ``.toml`` or ``.json`` file.
+    output_folder : str or path, optional
+        Where the spec's ``outputs`` are written (default: the spec's folder); a
+        spec cannot name a file outside it.
+    **budgets : int, optional
+        ``max_triangles``, ``max_samples``, ``max_parts``: limits for this spec
+        (see :class:`cadpipe.limits.Limits`), over the spec's own keys of those names.
+
+    Raises :class:`SpecError` naming the file, the key path and what was expected,
+    and :class:`~cadpipe.errors.LimitError` for a spec asking for too much work.
     """
     file = FilePath(spec_path)
-    return SpecContext(file).call(_spec, _parse(file))
+    unknown = set(budgets) - {"max_triangles", "max_samples", "max_parts"}
+    if unknown:
+        raise InputError("unknown option; expected output_folder, max_triangles, "
+                         "max_samples or max_parts", key=sorted(unknown)[0])
+    try:
+        return SpecContext(file, output_folder, budgets).call(_spec, _parse(file))
+    except CadpipeError as exc:
+        raise exc.at(file=file) from exc.__cause__
 
 
-def load(spec_path):
-    """The :class:`~cadpipe.Assembly` a spec file describes."""
-    return read(spec_path).assembly
+def load(spec_path: str | os.PathLike, **options: typing.Any) -> "Assembly":
+    """The :class:`~cadpipe.Assembly` a spec file describes.
+
+    Parameters
+    ----------
+    spec_path : str or path-like
+        The ``.toml`` or ``.json`` file (docs/spec.md).
+    **options
+        As for :func:`read`: ``output_folder``, ``max_triangles``, ``max_samples``,
+        ``max_parts``.
+
+    Returns
+    -------
+    assembly : Assembly
+    """
+    return read(spec_path, **options).assembly

@@ -1,1 +1,2 @@
-"""Solids from meshes: validity, booleans through manifold3d, primitives, hollow parts, assemblies."""
+"""Solids from meshes: validity, booleans through manifold3d, primitives, hollow parts,
+assemblies."""

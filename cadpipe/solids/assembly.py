@@ -13,11 +13,18 @@ the part it came from (manifold3d's original ids), so exports can colour and nam
 surfaces per part.
 """
 
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
+from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.solids.booleans import as_solid, combine, is_void, reserve_ids, snap
 from cadpipe.errors import CadpipeError, GeometryError, InputError
@@ -26,6 +33,25 @@ from cadpipe.io.scene import Scene, ScenePart, meters_per_unit, parse_color
 from cadpipe.solids.transform import as_matrix
 
 OPERATIONS = ("add", "subtract", "intersect")
+
+#: the numpy sections of :meth:`Assembly.add`, ``subtract`` and ``intersect``
+_PART_ARGUMENTS = """
+    Parameters
+    ----------
+    name : str
+        The part's name, unique in the assembly; output faces keep it.
+    obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
+        A closed solid (a primitive, a loaded file) or a part that makes one.
+    transform : (4, 4) array_like, optional
+        Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
+    color : str or (3,) float, optional
+        ``"#rrggbb"`` or three numbers in [0, 1].
+
+    Returns
+    -------
+    assembly : Assembly
+        ``self``, so calls chain.
+"""
 
 #: formats whose default export is the one unioned solid (printing); others get the parts
 SOLID_FORMATS = frozenset({"stl", "3mf", "obj", "ply", "off"})
@@ -73,10 +99,10 @@ class Assembly:
         The assembly's name (USD root prim, default part name of the solid).
     """
 
-    def __init__(self, units="m", name="assembly"):
+    def __init__(self, units: str = "m", name: str = "assembly"):
         meters_per_unit(units)
         if not isinstance(name, str) or not name:
-            raise InputError(f"name: expected a non-empty string, got {name!r}")
+            raise InputError(f"expected a non-empty string, got {name!r}", key="name")
         self.units = units
         self.name = name
         self._parts = {}         # name -> Part, in the order given
@@ -88,40 +114,43 @@ class Assembly:
         return f"<cadpipe.Assembly {self.name!r}, {len(self._parts)} parts, units {self.units}>"
 
     @property
-    def parts(self):
+    def parts(self) -> tuple[Part, ...]:
         """The parts in the order they were given."""
         return tuple(self._parts.values())
 
     # -- building -------------------------------------------------------------
-    def add(self, name, obj, transform=None, color=None):
-        """Add a solid: a Pipe, HollowPipe, Junction, Mesh (e.g. a primitive or a loaded file).
-
-        ``transform`` is a 4x4 matrix placing it (see :func:`cadpipe.solids.transform.placement`);
-        ``color`` is ``"#rrggbb"`` or three numbers in [0, 1].
-        """
+    def add(self, name: str, obj: Any, transform: ArrayLike | None = None,
+            color: str | ArrayLike | None = None) -> Assembly:
+        """Add a solid to the union."""
         return self._put(name, obj, "add", transform, color)
 
-    def subtract(self, name, obj, transform=None, color=None):
+    def subtract(self, name: str, obj: Any, transform: ArrayLike | None = None,
+                 color: str | ArrayLike | None = None) -> Assembly:
         """Remove ``obj`` from the added solids; its cut faces keep ``name`` and ``color``."""
         return self._put(name, obj, "subtract", transform, color)
 
-    def intersect(self, name, obj, transform=None, color=None):
+    def intersect(self, name: str, obj: Any, transform: ArrayLike | None = None,
+                  color: str | ArrayLike | None = None) -> Assembly:
         """Keep only what lies inside ``obj``."""
         return self._put(name, obj, "intersect", transform, color)
 
+    for _method in (add, subtract, intersect):       # one argument list for the three
+        _method.__doc__ += "\n" + _PART_ARGUMENTS
+    del _method
+
     def _put(self, name, obj, op, transform, color):
         if not isinstance(name, str) or not name:
-            raise InputError(f"name: expected a non-empty string, got {name!r}")
+            raise InputError(f"expected a non-empty string, got {name!r}", key="name")
         if name in self._parts:
-            raise InputError(f"name: a part named {name!r} is already in the assembly; "
-                             "part names must be unique")
+            raise InputError(f"a part named {name!r} is already in the assembly; "
+                             "part names must be unique", key="name")
         if not (isinstance(obj, Mesh) or callable(getattr(obj, "mesh", None))
                 or callable(getattr(obj, "solids", None))):
-            raise InputError(f"{name}: expected a Mesh, Pipe, HollowPipe or Junction, "
-                             f"got {type(obj).__name__}")
+            raise InputError("expected a Mesh, Pipe, HollowPipe or Junction, "
+                             f"got {type(obj).__name__}", part=name)
         matrix = None
         if transform is not None:
-            matrix = as_matrix(transform, f"{name}: transform")
+            matrix = as_matrix(transform, "transform", part=name)
             if np.array_equal(matrix, np.eye(4)):
                 matrix = None
         rgb = None if color is None else parse_color(color)
@@ -135,11 +164,14 @@ class Assembly:
         if self._solids is not None:
             return
         placed_parts, names = [], {}
+        limits.check("max_triangles", sum(limits.estimated_triangles(p.obj)
+                                          for p in self._parts.values()),
+                     f"assembly {self.name!r}")
         for part in self._parts.values():
             try:
                 shapes = part.shapes()
             except CadpipeError as exc:       # e.g. a pipe that intersects itself
-                raise type(exc)(f"{part.name}: {exc}") from None
+                raise exc.at(part=part.name) from exc.__cause__
             ids = iter(reserve_ids(sum(map(len, shapes))))
             placed = []
             for kind, meshes in zip(("solid", "bore"), shapes):
@@ -175,13 +207,25 @@ class Assembly:
                 (cuts if part.op == "subtract" else clips).append(whole)
         return adds, cuts, clips
 
-    def union(self, progress=None):
+    def union(self, progress: Callable[[str], object] | None = None) -> Mesh:
         """Combine every part into one watertight :class:`Mesh` (computed once, then cached).
 
-        Each face's part is in ``face_part``/``part_names``. ``progress``, if given,
-        is called with a short label after each part is prepared and after the
-        boolean. Raises :class:`MeshError` naming a part that is not a closed solid,
-        and :class:`GeometryError` when nothing is left.
+        Parameters
+        ----------
+        progress : callable, optional
+            Called with a short label after each part is prepared and after the boolean.
+
+        Returns
+        -------
+        mesh : Mesh
+            The solid; each face's part is in ``face_part``/``part_names``.
+
+        Raises
+        ------
+        MeshError
+            Naming a part that is not a closed solid.
+        GeometryError
+            When nothing is left.
         """
         if self._union is None:
             if not any(p.op == "add" for p in self._parts.values()):
@@ -199,8 +243,13 @@ class Assembly:
                 progress("boolean")
         return self._union
 
-    def mesh(self):
-        """The combined solid (the same as :meth:`union`), so an Assembly exports as a mesh."""
+    def mesh(self) -> Mesh:
+        """The combined solid (the same as :meth:`union`), so an Assembly exports as a mesh.
+
+        Returns
+        -------
+        mesh : Mesh
+        """
         return self.union()
 
     # -- output ---------------------------------------------------------------
@@ -217,7 +266,7 @@ class Assembly:
             solid = solid.transform(np.linalg.inv(part.transform)[:3])
         return Mesh.from_manifold(solid, part_of_id=self._names, attributes=part.attributes)
 
-    def to_scene(self, mode="parts"):
+    def to_scene(self, mode: str = "parts") -> Scene:
         """A :class:`~cadpipe.io.scene.Scene` for exporters.
 
         ``mode="parts"``: one scene part per added part, in its own coordinates with
@@ -225,6 +274,14 @@ class Assembly:
         subtractions and intersections (but not merged with other parts).
         ``mode="solid"``: one part, the unioned solid, with ``colors`` mapping part
         names to colours for its labelled faces.
+
+        Parameters
+        ----------
+        mode : {"parts", "solid"}
+
+        Returns
+        -------
+        scene : Scene
         """
         mode = as_choice(mode, "mode", EXPORT_MODES)
         entries = self._parts.values()
@@ -239,12 +296,24 @@ class Assembly:
                           for p, mesh in meshes if len(mesh.faces))   # skip parts cut away
         return Scene(name=self.name, parts=parts, units=self.units, colors=colors)
 
-    def export(self, path, mode=None, **options):
+    def export(self, path: str | os.PathLike, mode: str | None = None,
+               **options: Any) -> Any:
         """Write the assembly to ``path``; the format follows the suffix.
 
-        ``mode`` is "solid" (the unioned solid) or "parts" (each part on its own);
-        by default "solid" for printing formats (STL, 3MF, OBJ, PLY, OFF) and
-        "parts" for scene formats (USD, GLB, ...). Returns the path written.
+        Parameters
+        ----------
+        path : str or path-like
+        mode : {"solid", "parts"}, optional
+            The unioned solid, or each part on its own; by default "solid" for
+            printing formats (STL, 3MF, OBJ, PLY, OFF) and "parts" for scene formats
+            (USD, GLB, ...).
+        **options
+            Format options (see :mod:`cadpipe.io.files`).
+
+        Returns
+        -------
+        path : pathlib.Path
+            The file written.
         """
         from cadpipe.io.files import export, suffix_of
 

@@ -68,10 +68,10 @@ def as_solid(mesh, name, original_id):
     """
     solid = mesh.to_manifold(name, original_id)
     if solid.is_empty():
-        raise MeshError(f"{name}: encloses no volume (every triangle is degenerate)")
+        raise MeshError("encloses no volume (every triangle is degenerate)", part=name)
     volume = solid.volume()
     if volume <= 0:
-        raise MeshError(f"{name}: inside out (volume {volume:.6g}); flip its faces")
+        raise MeshError(f"inside out (volume {volume:.6g}); flip its faces", part=name)
     _check_shells(solid, name)
     return solid
 
@@ -94,8 +94,8 @@ def _check_shells(solid, name):
         cavity = Mesh.trusted(shell.vertices, shell.faces[:, ::-1]).to_manifold(
             f"{name} shell {i}")
         if (cavity - body).volume() > 1e-9 * cavity.volume():
-            raise MeshError(f"{name}: shell {i} of {len(shells)} is inside out and not a void "
-                            "inside another shell; flip its faces")
+            raise MeshError(f"shell {i} of {len(shells)} is inside out and not a void "
+                            "inside another shell; flip its faces", part=name)
 
 
 def bounding_boxes(solids):
@@ -182,5 +182,5 @@ def carve(bodies, bores=(), name="solid", **mesh_options):
     cuts = [as_solid(m, f"{name} bore {i}", next(ids)) for i, m in enumerate(bores)]
     solid = combine(adds, cuts)
     if is_void(solid, adds):
-        raise GeometryError(f"{name}: nothing is left after cutting the bores")
+        raise GeometryError("nothing is left after cutting the bores", part=name)
     return Mesh.from_manifold(solid, **mesh_options)

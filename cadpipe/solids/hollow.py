@@ -31,7 +31,7 @@ def _ends(ends):
     """``(start, end)`` styles from one style or a pair."""
     pair = (ends, ends) if isinstance(ends, str) else tuple(ends)
     if len(pair) != 2:
-        raise InputError(f"ends: expected 'open', 'closed' or a pair of them, got {ends!r}")
+        raise InputError(f"expected 'open', 'closed' or a pair of them, got {ends!r}", key="ends")
     return tuple(as_choice(e, "ends", END_STYLES) for e in pair)
 
 
@@ -40,8 +40,8 @@ def _wall(wall, pipes):
     wall = float(as_positive(wall, "wall"))
     thinnest = min(float(p.radii.min()) for p in pipes)
     if wall >= thinnest:
-        raise InputError(f"wall: {wall:g} must be less than the smallest pipe radius "
-                         f"{thinnest:g}")
+        raise InputError(f"{wall:g} must be less than the smallest pipe radius "
+                         f"{thinnest:g}", key="wall")
     return wall
 
 
@@ -67,8 +67,8 @@ def bore(pipe, wall, start="open", end="open"):
     if path.closed or not (trim[start] or trim[end]):
         return inner
     if trim[start] + trim[end] >= path.length:
-        raise InputError(f"wall: closed ends {wall:g} thick leave no bore in a pipe "
-                         f"{path.length:g} long; use a thinner wall or open ends")
+        raise InputError(f"closed ends {wall:g} thick leave no bore in a pipe "
+                         f"{path.length:g} long; use a thinner wall or open ends", key="wall")
     return inner.trimmed(trim[start], trim[end])
 
 

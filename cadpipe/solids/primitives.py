@@ -6,9 +6,10 @@ into booleans as it is; ``attributes`` record the parameters that made it.
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._validate import as_int, as_positive
 from cadpipe.solids.booleans import snap
-from cadpipe.errors import InputError
+from cadpipe.errors import CadpipeError, InputError
 from cadpipe.geometry.mesh import Mesh
 
 
@@ -54,6 +55,8 @@ def sphere(radius, segments=32):
 
     radius = float(as_positive(radius, "radius"))
     segments = as_int(segments, "segments", low=4, high=4096)
+    limits.check("max_triangles", segments * segments // 2, f"a sphere of {segments} segments",
+                 key="segments")
     return _from_manifold(manifold3d.Manifold.sphere(radius, segments), kind="sphere",
                           radius=radius, segments=segments)
 
@@ -69,7 +72,10 @@ def imported(path, snap_tolerance=None):
         snap_tolerance = float(as_positive(snap_tolerance, "snap_tolerance"))
     mesh = snap(Mesh.load(path), snap_tolerance)
     if not len(mesh.faces):
-        raise InputError(f"{path}: every triangle collapsed when welding vertices; "
-                         "use a smaller snap_tolerance")
-    mesh.require_solid(str(path))
+        raise InputError("every triangle collapsed when welding vertices; "
+                         "use a smaller snap_tolerance", file=path)
+    try:
+        mesh.require_solid(None)
+    except CadpipeError as exc:
+        raise exc.at(file=path) from None
     return mesh.with_attributes(kind="mesh")

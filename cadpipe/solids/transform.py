@@ -69,7 +69,7 @@ def _three(value, name):
     except (TypeError, ValueError):
         arr = None
     if isinstance(value, str) or arr is None or not np.isfinite(arr).all():
-        raise InputError(f"{name}: expected 3 finite numbers, got {value!r}")
+        raise InputError(f"expected 3 finite numbers, got {value!r}", key=name)
     return arr
 
 
@@ -83,7 +83,7 @@ def placement(translate=(0, 0, 0), rotate=(0, 0, 0), scale=1.0):
 
     factors = _three(scale, "scale")
     if (factors == 0).any():
-        raise InputError(f"scale: factors must be non-zero, got {scale!r}")
+        raise InputError(f"factors must be non-zero, got {scale!r}", key="scale")
     matrix = np.eye(4)
     matrix[:3, :3] = Rotation.from_euler("xyz", _three(rotate, "rotate"),
                                          degrees=True).as_matrix() * factors

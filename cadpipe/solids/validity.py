@@ -7,11 +7,23 @@ agree on orientation (``winding_consistent``; both together are
 faces cut through each other.
 """
 
+from typing import Any
+
+from cadpipe.geometry.mesh import Mesh
 from cadpipe.solids.intersect import self_intersections
 
 
-def check_mesh(mesh):
+def check_mesh(mesh: Mesh) -> dict[str, Any]:
     """A report on ``mesh`` as a dict of plain values (JSON-ready).
+
+    Parameters
+    ----------
+    mesh : Mesh
+
+    Returns
+    -------
+    report : dict
+        The keys below.
 
     Keys: ``valid`` (a closed, consistently wound, outward, non-self-intersecting
     solid), ``problems`` (one sentence per failed check), ``triangles``,
