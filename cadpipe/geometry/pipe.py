@@ -406,16 +406,28 @@ def welded_solid(solid, **kwargs):
 
     A union leaves such clusters where its pieces meet at grazing angles; STL, 3MF,
     OBJ and PLY files (float32) would merge them anyway, into edges shared by more
-    than two faces. Raises :class:`GeometryError` if merging them leaves a surface
-    that is not a closed, oriented 2-manifold.
+    than two faces. Where merging at that distance would not leave a closed,
+    oriented 2-manifold, smaller distances are tried, down to one unit in float32's
+    last place; failing that the float64 solid is returned as manifold3d made it.
     """
+    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
+    size = max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    plain = Mesh.from_manifold(solid, **kwargs)
+    simple = Mesh.from_manifold(solid.as_original().simplify(FLOAT32_WELD * size), **kwargs)
+    for mesh, ulps in ((simple, 16), (plain, 16), (plain, 4), (plain, 1)):
+        welded = _weld(mesh, ulps * 2.0 ** -23 * size, kwargs)
+        if welded is not None:
+            return welded
+    return plain
+
+
+def _weld(mesh, tol, kwargs):
+    """``mesh`` with its vertex clusters closer than ``tol`` merged, or None if that
+    does not leave a closed, oriented surface."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
-    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
-    tol = FLOAT32_WELD * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
-    mesh = Mesh.from_manifold(solid.as_original().simplify(tol), **kwargs)
     vertices, faces = mesh.vertices, mesh.faces
     pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
     if not len(pairs):
@@ -430,14 +442,11 @@ def welded_solid(solid, **kwargs):
     faces = faces[keep]
     # sheets that touched along faces: such a face now comes twice, facing both ways
     _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
-                                   return_counts=True)
+                                 return_counts=True)
     faces = faces[counts[index.reshape(-1)] == 1]
     used, faces = np.unique(faces, return_inverse=True)
     welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
-    if not welded.is_oriented:
-        raise GeometryError("the swept solid's union left features too small for float32 "
-                            "files; smooth the path or change the radius slightly")
-    return welded
+    return welded if len(faces) and welded.is_oriented else None
 
 
 #: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
@@ -469,7 +478,9 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
     next segment: the hulls then cross their neighbours at steep angles instead of
     sharing a face (manifold3d may leave a shared face's corners doubled).
     """
-    rings, path = pipe.rings(), pipe.path
+    path = pipe.path
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
     n, count = len(path), len(path.segments)
     joints = np.asarray(joints, np.int64)
     at_joint = np.zeros(n, bool)
@@ -482,6 +493,23 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
         step = min(tongue * float(radii[p]), 0.25 * float(lengths[seg]))
         return centres[p] + (1 - tongue) * (rings[p] - centres[p]) + sign * step * directions[seg]
 
+    def square(k, p):
+        """Segment k's cross-section at its end ``p`` (a joint): the prism's section,
+        from its other end's ring, or a fresh polygon when both ends are joints."""
+        q = (k + 1) % n if p == k else k
+        d = directions[k]
+        if at_joint[q]:
+            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+            e1 /= np.linalg.norm(e1)
+            offsets = float(radii[p]) * (np.outer(np.cos(2 * np.pi * np.arange(pipe.sides)
+                                                         / pipe.sides), e1)
+                                         + np.outer(np.sin(2 * np.pi * np.arange(pipe.sides)
+                                                           / pipe.sides), np.cross(d, e1)))
+        else:
+            offsets = rings[q] - centres[q]
+            offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
+        return centres[p] + offsets
+
     pieces = []
     for k in np.asarray(segments).tolist():
         d = directions[k]
@@ -490,7 +518,7 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
             ring = rings[p]
             inner = pipe.closed or 0 <= other < count
             if at_joint[p]:
-                ring = ring - ((ring - centres[p]) @ d)[:, None] * d
+                ring = square(k, p)
             elif inner and tongue:
                 ends.append(into(p, other % count, sign))
             ends.append(ring + (sign * overlap * inner) * d)
