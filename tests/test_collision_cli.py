@@ -26,7 +26,8 @@ def test_the_example_cell_reports_the_finger_in_the_workpiece(capsys):
     assert out.count("COLLISION") == 1
     spec = read(EXAMPLE)
     world = world_from_spec(spec)
-    assert spec.cell.check == {"stop_after_self": False, "certify": False}
+    assert spec.cell.check == {"stop_after_self": False, "certify": False, "first_hit": False,
+                               "only": None}
     assert ("workpiece", "weld_seam", "the seam lies on the workpiece") in world.allowed
     assert world.group("panda_hand") == "panda" and world.group("cable_duct") is None
     assert spec.cell.objects == ("workpiece", "cable_duct", "weld_seam")
@@ -172,3 +173,19 @@ def test_a_robot_base_transform_moves_every_link(tmp_path):
     for link, pose in at.cell.robot.link_poses().items():
         np.testing.assert_allclose(moved.pose(link), base @ pose, atol=1e-12)
     assert moved.group("arm") == "hinge" and ("base", "arm", "adjacent links") in moved.allowed
+
+
+def test_check_options_first_hit_and_only_come_from_the_spec(tmp_path):
+    shutil.copytree(ROOT / "assets" / "robots" / "panda", tmp_path / "panda")
+    text = ('[robot]\nurdf = "panda/panda.urdf"\njoints = {panda_joint4 = -1.5}\n'
+            '[check]\nfirst_hit = true\nonly = "panda"\n'
+            '[[parts]]\nname = "a"\nkind = "box"\nsize = 0.1\ntransform = {translate = [2, 2, 2]}\n'
+            '[[parts]]\nname = "b"\nkind = "box"\nsize = 0.1\ntransform = {translate = [2, 2, 2.05]}\n')
+    spec = read(write_cell(tmp_path, text))
+    assert spec.cell.check == {"stop_after_self": False, "certify": False, "first_hit": True,
+                               "only": "panda"}
+    report = world_from_spec(spec).check(**spec.cell.check)
+    # the robot collides with itself (no SRDF): found, and the rest left unchecked
+    assert report.collisions and report.counts()["not checked"] >= 1
+    decided = {(p.a, p.b): p.decided_by for p in report.pairs}
+    assert decided[("a", "b")] == "not checked"          # obstacle pair: not the robot's

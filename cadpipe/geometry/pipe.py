@@ -9,7 +9,9 @@ pipes is built from the same rings the pipes themselves use.
 import dataclasses
 import warnings
 from dataclasses import KW_ONLY, dataclass
+from collections.abc import Mapping
 from functools import cached_property, partial
+from typing import Any
 
 import numpy as np
 
@@ -179,9 +181,19 @@ class Pipe:
         set_("path", source)
         set_("radius", _frozen(radii) if radius.ndim else float(radius))
 
-    def replace(self, **changes) -> "Pipe":
-        """This pipe with some settings changed (a ``sides`` that came from ``tolerance``
-        is chosen again unless given)."""
+    def replace(self, **changes: Any) -> "Pipe":
+        """This pipe with some settings changed.
+
+        Parameters
+        ----------
+        **changes
+            New values of the constructor's arguments; a ``sides`` that came from
+            ``tolerance`` is chosen again unless given.
+
+        Returns
+        -------
+        pipe : Pipe
+        """
         if self._sides_from_tolerance and "sides" not in changes:
             changes["sides"] = None
         if self.corners == "round" and "path" not in changes:
@@ -202,18 +214,30 @@ class Pipe:
         """Latitude steps of a round cap or ball joint: ``cap_segments`` or its default."""
         return max(2, self.sides // 4) if self.cap_segments is None else self.cap_segments
 
-    def trimmed(self, start=0.0, end=0.0):
-        """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings)."""
+    def trimmed(self, start: float = 0.0, end: float = 0.0) -> "Pipe":
+        """This pipe with ``start`` and ``end`` arc length cut off its ends (same settings).
+
+        Parameters
+        ----------
+        start, end : float
+            As for :meth:`Path.trimmed`.
+
+        Returns
+        -------
+        pipe : Pipe
+            Radii interpolated at the cuts.
+        """
         path = self.path.trimmed(start, end)
         radii = np.interp(start + path.arc_length, self.path.arc_length, self.radii)
         return self.replace(path=path, radius=radii)
 
     @property
-    def closed(self):
+    def closed(self) -> bool:
+        """Whether the path is closed (a ring of tube with no caps)."""
         return self.path.closed
 
     @property
-    def ring_radii(self):
+    def ring_radii(self) -> np.ndarray:
         """(N,) distance of ring vertices from the axis (radius, or circumradius)."""
         return self.radii * envelope_factor(self.sides) if self.envelope else self.radii
 
@@ -222,27 +246,32 @@ class Pipe:
         return tubes_of([self])
 
     @property
-    def normals(self):
+    def normals(self) -> np.ndarray:
         """(N, 3) unit direction of each ring's vertex 0 (before miter stretch)."""
         return np.ascontiguousarray(self._tubes.normals.T)
 
     @property
-    def binormals(self):
+    def binormals(self) -> np.ndarray:
+        """(N, 3) unit ``tangent x normal`` at each ring."""
         return cross(self.path.tangents, self.normals)
 
     @property
-    def seam_shift(self):
+    def seam_shift(self) -> int:
         """The last ring's vertex k meets vertex k + shift of the ring it must match: the
         first ring of a closed pipe, or the ring that ``end_normal`` describes."""
         return int(self._tubes.seam_shift[0])
 
     @property
-    def miter_stretch(self):
+    def miter_stretch(self) -> np.ndarray:
         """(N,) factor ``1 / cos(turn / 2)`` by which each ring is stretched in its bend plane."""
         return self._tubes.miter_stretch
 
-    def ring_axes(self):
+    def ring_axes(self) -> np.ndarray:
         """(N, 2, 3) vectors that map ``(cos a, sin a)`` to a ring vertex offset.
+
+        Returns
+        -------
+        axes : (N, 2, 3) float
 
         Each ring is the circle of ``ring_radii`` in the plane normal to the
         tangent, stretched by :attr:`miter_stretch` along the bend direction so that
@@ -250,16 +279,23 @@ class Pipe:
         """
         return self._tubes.axes[:, :2]
 
-    def rings(self, sides=None):
-        """(N, sides, 3) ring vertices, counter-clockwise about the tangent.
+    def rings(self, sides: int | None = None) -> np.ndarray:
+        """Ring vertices, counter-clockwise about the tangent.
 
-        ``sides`` defaults to the pipe's own; rings of other sizes on the same frames
-        are what a splice's transitions are made of.
+        Parameters
+        ----------
+        sides : int, optional
+            Vertices per ring, by default the pipe's own; rings of other sizes on the
+            same frames are what a splice's transitions are made of.
+
+        Returns
+        -------
+        rings : (N, sides, 3) float
         """
         return self._tubes.rings(slice(None), self.sides if sides is None else sides)
 
     @property
-    def attributes(self):
+    def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this pipe, for exporters' metadata."""
         return _deprecated.Attributes({
             "kind": "pipe", "sides": self.sides, "radius_min": float(self.radii.min()),
@@ -309,26 +345,48 @@ class Pipe:
                                 fix={"strict": False})
         return self._swept_mesh(folds)
 
-    def surface(self, *, cap_start=True, cap_end=True):
+    def surface(self, *, cap_start: bool = True,
+                cap_end: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Vertices and faces of the side surface plus the requested end caps.
 
         Vertices are the rings in travel order (a round start cap's rings first, a
         round end cap's last), then the caps' poles. Without a cap, the first or last
         ``sides`` vertices are that end's open ring: a splice stitches it to the next
         piece.
+
+        Parameters
+        ----------
+        cap_start, cap_end : bool
+            Close that end (ignored on a closed path).
+
+        Returns
+        -------
+        vertices : (V, 3) float
+        faces : (F, 3) int
         """
         surface = Surface()
         add_pipe_surfaces(surface, self._tubes, [self], cap_start=[cap_start], cap_end=[cap_end])
         vertices, faces, _ = surface.build()
         return vertices, faces
 
-    def units(self, overlap=0.0):
+    def units(self, overlap: float = 0.0) -> list[np.ndarray]:
         """Deprecated: :meth:`convex_pieces` (``units`` is a length unit elsewhere)."""
         _deprecated.warn("Pipe.units()", "Pipe.convex_pieces()")
         return self.convex_pieces(overlap)
 
-    def convex_pieces(self, overlap=0.0):
+    def convex_pieces(self, overlap: float = 0.0) -> list[np.ndarray]:
         """Convex pieces whose union is the tube: each path unit, plus round caps.
+
+        Parameters
+        ----------
+        overlap : float
+            How far each unit's rings are pushed outward along its segment, in path
+            units (see below).
+
+        Returns
+        -------
+        pieces : list of (K, 3) float
+            The points whose convex hull is each piece.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
         unit); a round cap is its end ring, cap rings and pole. ``overlap`` pushes

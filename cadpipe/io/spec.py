@@ -391,9 +391,12 @@ def _allow(ctx, *, a: str, b: str, reason: str = "allowed in the spec"):
     return a, b, reason
 
 
-def _check(ctx, *, stop_after_self: bool = False, certify: bool = False):
-    """``[check]``: options of :meth:`cadpipe.CollisionWorld.check`."""
-    return {"stop_after_self": stop_after_self, "certify": certify}
+def _check(ctx, *, stop_after_self: bool = False, certify: bool = False,
+           first_hit: bool = False, only: str = ""):
+    """``[check]``: options of :meth:`cadpipe.CollisionWorld.check` (``only = ""``: every
+    pair)."""
+    return {"stop_after_self": stop_after_self, "certify": certify, "first_hit": first_hit,
+            "only": only or None}
 
 
 def _add_parts(ctx, assembly, parts):

@@ -12,7 +12,9 @@ ends run a little past the pipe, so the cut leaves no skin.
 import dataclasses
 import warnings
 from dataclasses import dataclass
+from collections.abc import Mapping
 from functools import cached_property, partial
+from typing import Any
 
 import numpy as np
 
@@ -20,6 +22,7 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
+from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe
 from cadpipe.geometry.splice import TRANSITIONS
@@ -125,8 +128,18 @@ class HollowPipe(Hollow):
         object.__setattr__(self, "wall", _wall(self.wall, [self.pipe]))
         object.__setattr__(self, "ends", _ends(self.ends))
 
-    def replace(self, **changes) -> "HollowPipe":
-        """This hollow pipe with some settings changed."""
+    def replace(self, **changes: Any) -> "HollowPipe":
+        """This hollow pipe with some settings changed.
+
+        Parameters
+        ----------
+        **changes
+            New values of ``pipe``, ``wall``, ``ends``.
+
+        Returns
+        -------
+        hollow : HollowPipe
+        """
         return dataclasses.replace(self, **changes)
 
     def __repr__(self):
@@ -134,16 +147,22 @@ class HollowPipe(Hollow):
         return f"<cadpipe.HollowPipe wall {self.wall:g}, ends {ends}, {self.pipe!r}>"
 
     @cached_property
-    def bore(self):
+    def bore(self) -> Pipe:
         """The :class:`Pipe` cut out of the outer one (see :func:`bore`)."""
         return bore(self.pipe, self.wall, *self.ends)
 
-    def solids(self):
-        """``([outer mesh], [bore mesh])``: what an assembly adds and what it cuts."""
+    def solids(self) -> tuple[list[Mesh], list[Mesh]]:
+        """What an assembly adds and what it cuts.
+
+        Returns
+        -------
+        solids, bores : list of Mesh
+            ``[outer mesh]`` and ``[bore mesh]``.
+        """
         return [self.pipe.mesh()], [self.bore.mesh()]
 
     @property
-    def attributes(self):
+    def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this part."""
         return _deprecated.Attributes({**self.pipe.attributes, "kind": "hollow pipe",
                                        "wall": self.wall, "ends": "/".join(self.ends)},
@@ -182,7 +201,7 @@ class Junction(Hollow):
         return [m for ms in outer for m in ms], [m for ms in bores for m in ms]
 
     @property
-    def attributes(self):
+    def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this part."""
         return _deprecated.Attributes({"kind": "junction", "pipes": len(self.pipes),
                                        "wall": max(p.wall for p in self.pipes)},
@@ -250,7 +269,7 @@ class HollowChain(Hollow):
         return [splice(*outers, **options)], [splice(*bores, **options)]
 
     @property
-    def attributes(self):
+    def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this part."""
         return _deprecated.Attributes({"kind": "hollow chain", "pipes": len(self.pipes),
                                        "wall": self.wall, "ends": "/".join(self.ends),
