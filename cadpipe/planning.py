@@ -6,9 +6,11 @@ limits (continuous joints span [-pi, pi]). cadpipe answers its two
 questions:
 
 * **Is this state valid?** (:func:`state_validity_checker`) -- the world's
-  exact check of one configuration (:meth:`CollisionWorld.check_path`), of
-  the pairs with a robot link (standing obstacles touching each other are
-  not the planner's concern).
+  exact check of one configuration, stopping at the first collision, of the
+  pairs with a robot link (``check(first_hit=True, only=group)``; standing
+  obstacles touching each other are not the planner's concern). Like
+  MoveIt's planning scene it poses the robot in the world to do so;
+  :func:`plan` puts the robot back where it stood.
 * **Is this motion valid?** (:class:`MotionValidator`) -- the world's
   continuous check of the straight joint-space motion
   (:meth:`CollisionWorld.check_motion`), a proof where OMPL's default
@@ -23,7 +25,7 @@ driven.
 
 import numpy as np
 
-from cadpipe.collision.motion import robot_collides, start_contacts
+from cadpipe.collision.motion import start_contacts
 from cadpipe.errors import CadpipeError, InputError
 
 PLANNERS = ("RRTConnect", "RRT", "RRTstar", "PRM", "KPIECE1", "BITstar")
@@ -58,14 +60,15 @@ class Counter:
 def state_validity_checker(world, group, counter=None):
     """A callable OMPL accepts as a state validity checker: True where the robot
     ``group`` collides with nothing at the state (a joint vector over
-    ``robot.actuated``)."""
+    ``robot.actuated``). It leaves the robot posed at the last state asked."""
     robot, _ = world.robot(group)
     count = len(robot.actuated)
     counter = Counter() if counter is None else counter
 
     def valid(state):
         counter.states += 1
-        return not robot_collides(world, group, _values(state, count)[None])[0]
+        world.set_joints(group, _values(state, count))
+        return not world.check(first_hit=True, only=group)
 
     return valid
 
@@ -90,6 +93,22 @@ def motion_validator(world, group, space_information, counter=None, tolerance=No
     return MotionValidator(space_information)
 
 
+def joint_space(robot):
+    """OMPL's ``RealVectorStateSpace`` of the robot's joint-limit box (continuous
+    joints span [-pi, pi]) and its bounds (keep both alive together)."""
+    base, _ = _ompl()
+    lower, upper = robot.limits
+    lower, upper = np.where(np.isfinite(lower), lower, -np.pi), \
+        np.where(np.isfinite(upper), upper, np.pi)
+    space = base.RealVectorStateSpace(len(lower))
+    bounds = base.RealVectorBounds(len(lower))
+    for k, (lo, hi) in enumerate(zip(lower, upper)):
+        bounds.setLow(k, float(lo))
+        bounds.setHigh(k, float(hi))
+    space.setBounds(bounds)
+    return space, bounds
+
+
 def setup(world, group, counter=None, planner="RRTConnect", step=None):
     """An ``ompl.geometric.SimpleSetup`` for robot ``group`` of ``world``: the
     joint-limit box as state space, cadpipe's state validity checker and
@@ -101,15 +120,7 @@ def setup(world, group, counter=None, planner="RRTConnect", step=None):
         raise InputError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}",
                          key="planner")
     robot, _ = world.robot(group)
-    lower, upper = robot.limits
-    lower, upper = np.where(np.isfinite(lower), lower, -np.pi), \
-        np.where(np.isfinite(upper), upper, np.pi)
-    space = base.RealVectorStateSpace(len(lower))
-    bounds = base.RealVectorBounds(len(lower))
-    for k, (lo, hi) in enumerate(zip(lower, upper)):
-        bounds.setLow(k, float(lo))
-        bounds.setHigh(k, float(hi))
-    space.setBounds(bounds)
+    space, bounds = joint_space(robot)
     simple = geometric.SimpleSetup(space)
     counter = Counter() if counter is None else counter
     simple.setStateValidityChecker(state_validity_checker(world, group, counter))
@@ -183,11 +194,17 @@ def plan(world, group, start, goal, seconds=5.0, planner="RRTConnect", simplify=
             state[k] = float(value)
         states.append(state)
     simple.setStartAndGoalStates(*states)
-    solved = simple.solve(float(seconds))
+    links = list(robot.link_meshes)
+    stood = [world.pose(link) for link in links]
+    try:
+        solved = simple.solve(float(seconds))
+        if solved and simplify:
+            simple.simplifySolution()
+    finally:
+        for link, pose in zip(links, stood):
+            world.set_pose(link, pose)
     if not solved or "Exact" not in str(solved):
         raise PlanningError(f"{planner} found no path for {group} in {seconds:g} s "
                             f"({counter.states} states, {counter.motions} motions checked)")
-    if simplify:
-        simple.simplifySolution()
     count = len(robot.actuated)
     return np.array([_values(s, count) for s in simple.getSolutionPath().getStates()])

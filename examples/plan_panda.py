@@ -22,21 +22,27 @@ def shifted(x, y, z):
     return pose
 
 
+def obstacles():
+    """A wall with a window (four boxes around a 0.4 m square opening, its sill 0.3 m
+    up) and a cable duct (a pipe) across the Panda's workspace: name -> (shape, pose)."""
+    x, t = 0.55, 0.02
+    duct = Path([[-0.5, 0.45, 0.15], [0.0, 0.5, 0.55], [0.3, 0.6, 0.4]])
+    return {"wall_bottom": (Box((t, 1.4, 0.3)), shifted(x, 0.0, 0.15)),
+            "wall_top": (Box((t, 1.4, 0.4)), shifted(x, 0.0, 0.9)),
+            "wall_left": (Box((t, 0.5, 0.4)), shifted(x, 0.45, 0.5)),
+            "wall_right": (Box((t, 0.5, 0.4)), shifted(x, -0.45, 0.5)),
+            "duct": (Pipe(duct, radius=0.04), np.eye(4))}
+
+
 def window_cell(robot):
-    """The Panda before a wall with a window (four boxes around a 0.4 m square
-    opening, its sill 0.3 m up) and a cable duct (a pipe) across its workspace."""
+    """The Panda in the :func:`obstacles` scene (the wall's pieces may touch)."""
     world = CollisionWorld()
     world.add_robot(robot)
-    x, t = 0.55, 0.02
-    world.add("wall_bottom", Box((t, 1.4, 0.3)), transform=shifted(x, 0.0, 0.15))
-    world.add("wall_top", Box((t, 1.4, 0.4)), transform=shifted(x, 0.0, 0.9))
-    world.add("wall_left", Box((t, 0.5, 0.4)), transform=shifted(x, 0.45, 0.5))
-    world.add("wall_right", Box((t, 0.5, 0.4)), transform=shifted(x, -0.45, 0.5))
+    for name, (shape, pose) in obstacles().items():
+        world.add(name, shape, transform=pose)
     for a, b in (("wall_bottom", "wall_left"), ("wall_bottom", "wall_right"),
                  ("wall_top", "wall_left"), ("wall_top", "wall_right")):
         world.allow(a, b, reason="one wall")
-    duct = Path([[-0.5, 0.45, 0.15], [0.0, 0.5, 0.55], [0.3, 0.6, 0.4]])
-    world.add("duct", Pipe(duct, radius=0.04))
     return world
 
 

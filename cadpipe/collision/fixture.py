@@ -33,6 +33,8 @@ from cadpipe.errors import InputError
 
 #: candidate segments per point from the KD-tree
 CANDIDATES = 8
+#: how many times more candidates the unsure points get before the exhaustive check
+WIDER = 4
 #: consecutive units per bounding ball of the exactness check
 GROUP = 16
 #: points per vectorized block of :func:`locate` (bounds the temporaries' memory)
@@ -184,13 +186,36 @@ def locate(pipe, points, transform=None):
         reach, units = line.tree.query(block, k=k)
         reach, units = reach.reshape(len(block), k), units.reshape(len(block), k)
         centreline, t, wall = line.project(block, units)
-        if k < count:     # some segment not among the candidates might be nearer: check all
-            far = reach[:, -1] - line.half
-            unsure = (centreline.min(axis=1) > far) | (wall.min(axis=1) > far - line.radius)
-            if unsure.any():
+        unsure = _unsure(line, reach, centreline, wall, k < count)
+        if unsure.any():  # a segment not among the candidates might be nearer: more of them
+            wide = min(WIDER * k, count)
+            rows = np.flatnonzero(unsure)
+            reach, more = (v.reshape(len(rows), wide) for v in line.tree.query(block[rows],
+                                                                                k=wide))
+            c, s, w = line.project(block[rows], more)
+            best = np.argmin(c, axis=1)
+            pick = np.arange(len(rows))
+            centreline[rows], wall[rows] = np.inf, np.inf
+            centreline[rows, 0], t[rows, 0], units[rows, 0] = c[pick, best], s[pick, best], \
+                more[pick, best]
+            wall[rows, 0] = w.min(axis=1)
+            still = _unsure(line, reach, c, w, wide < count)
+            if still.any():
+                unsure[:] = False
+                unsure[rows[still]] = True
                 _every_unit(line, block, unsure, centreline, t, wall, units)
         _fill(out, slice(start, start + len(block)), line, block, units, centreline, t, wall)
     return out
+
+
+def _unsure(line, reach, centreline, wall, partial):
+    """Points whose best candidate might be beaten by a unit not among them: one
+    nearer than the last candidate's midpoint less half the longest unit (and, for
+    the wall, less the largest radius)."""
+    if not partial:
+        return np.zeros(len(reach), bool)
+    far = reach[:, -1] - line.half
+    return (centreline.min(axis=1) > far) | (wall.min(axis=1) > far - line.radius)
 
 
 def _every_unit(line, block, unsure, centreline, t, wall, units):

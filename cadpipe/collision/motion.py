@@ -155,9 +155,12 @@ class _Pairs:
         self.a, self.b, self.other = (np.array(v, np.int64) for v in (a, b, other))
         self.name_a = [links[i] for i in a]
         self.name_b = [links[j] if j >= 0 else others[o] for j, o in zip(b, other)]
-        # each standing object's world box and pose
+        # each standing object's world box and pose, and the pipes' ball chains
         self.box = np.array([world.bounds(n) for n in others]).reshape(-1, 2, 3)
         self.pose = np.array([world.pose(n) for n in others]).reshape(-1, 4, 4)
+        bodies = [world.body(n) for n in others]
+        self.chains = {j: body.chain.moved(self.pose[j]) for j, body in enumerate(bodies)
+                       if body.kind == "chain"}
 
 
 _CHAINS = weakref.WeakKeyDictionary()
@@ -275,6 +278,11 @@ def _advance(world, robot, base, chain, pairs, q_a, q_b, v_a, v_b, tolerance):
             centre_b = np.where(link_b[:, None], centre_b, nearest)
         ball_b = np.where(link_b, chain.ball[np.maximum(b, 0)], 0.0)
         lower = np.linalg.norm(centre_a - centre_b, axis=1) - chain.ball[a] - ball_b
+        for j, pipe in pairs.chains.items():       # a pipe: the ball against its chain
+            at = np.flatnonzero(other == j)
+            if at.size:
+                lower[at] = np.maximum(lower[at], pipe.signed_distance(centre_a[at])
+                                       - chain.ball[a[at]])
         enough = lower >= speed[active] * (horizon - t[active])
         t[active[enough]] = horizon
         for e in np.flatnonzero(~enough):

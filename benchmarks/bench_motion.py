@@ -1,0 +1,254 @@
+"""Motion checks, OMPL planning and fixture queries: cadpipe against the glue a user
+writes with python-fcl, OMPL's own validator, trimesh and a KD-tree.
+
+Part 1, motions: the Panda in the window cell of ``examples/plan_panda.py`` (a wall
+with a window, a cable duct), random motions of RRTConnect's size (0.5 rad joint-space
+steps from free states). cadpipe's ``check_motion`` (a proof) against the python-fcl
+loop of ``bench_collision.py`` run at every state OMPL's discrete validator would
+check (MoveIt's default resolution, 1% of the joint space's extent). Reported: time per
+motion, time per checked state of the FCL loop, and how many motions each calls free
+that collide at one of 2,000 interpolated states.
+
+Part 2, planning: RRTConnect (range 0.5) from the example's start to its goal, with
+cadpipe's validators against the FCL loop as state validity checker and OMPL's
+discrete motion validator. Reported: plans per second, validity and motion calls, and
+the fraction of planned paths that collide between their states when re-checked at
+400 states per segment (cadpipe must be 0).
+
+Part 3, fixture queries: 500,000 points around a 300-point helix pipe: cadpipe's
+``locate`` (inside, wall distance, nearest centreline point, arc length, tangent; exact)
+against a KD-tree + segment projection baseline (8 candidate segments, unverified) and
+trimesh's ``proximity.signed_distance`` on the pipe's mesh (on 2,000 of the points).
+
+Timings are medians of ``--repeat`` interleaved runs (A B A B ...) after a warm-up.
+
+Run: .venv/bin/python benchmarks/bench_motion.py [--motions N] [--plans N] [--repeat R]
+"""
+
+import argparse
+import sys
+import time
+from pathlib import Path as FilePath
+
+import numpy as np
+
+ROOT = FilePath(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "examples"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import plan_panda  # noqa: E402
+from bench_collision import FclLoop, interleaved  # noqa: E402
+
+from cadpipe import Path, Pipe  # noqa: E402
+from cadpipe.collision import Robot  # noqa: E402
+from cadpipe.collision.fixture import locate  # noqa: E402
+from cadpipe.collision.motion import robot_collides  # noqa: E402
+
+#: OMPL's default longest valid segment: this fraction of the state space's extent
+RESOLUTION = 0.01
+DENSE = 2000
+
+
+def cell():
+    robot = Robot.from_urdf(plan_panda.PANDA / "panda.urdf", srdf=plan_panda.PANDA / "panda.srdf")
+    world = plan_panda.window_cell(robot)
+    allowed = {frozenset((a, b)) for a, b, _ in world.allowed}
+    return robot, world, FclLoop(robot, plan_panda.obstacles(), allowed)
+
+
+def extent(robot):
+    lower, upper = robot.limits
+    return float(np.linalg.norm(upper - lower))
+
+
+def sampled_states(robot, q_a, q_b):
+    """The states OMPL's discrete motion validator checks between two states."""
+    n = max(1, int(np.ceil(np.linalg.norm(q_b - q_a) / (RESOLUTION * extent(robot)))))
+    t = np.arange(1, n + 1) / n
+    return q_a + t[:, None] * (q_b - q_a)
+
+
+def motions(robot, world, count, rng, step=0.5):
+    """``count`` motions of joint-space length ``step`` between free states."""
+    lower, upper = robot.limits
+    found = []
+    while len(found) < count:
+        q_a = rng.uniform(lower, upper)
+        direction = rng.normal(size=len(q_a))
+        q_b = np.clip(q_a + step * direction / np.linalg.norm(direction), lower, upper)
+        if not robot_collides(world, robot.name, np.stack([q_a, q_b])).any():
+            found.append((q_a, q_b))
+    return found
+
+
+def part_motions(robot, world, loop, count, repeat, step):
+    rng = np.random.default_rng(0)
+    pairs = motions(robot, world, count, rng, step)
+    t = np.linspace(0.0, 1.0, DENSE)
+    truth = [robot_collides(world, robot.name, a + t[:, None] * (b - a)).any() for a, b in pairs]
+    states = [sampled_states(robot, a, b) for a, b in pairs]
+
+    def cadpipe():
+        return [not world.check_motion(robot.name, a, b).free for a, b in pairs]
+
+    def fcl_sampled():
+        return [any(loop(q[None]) for q in s) for s in states]
+
+    seconds, results = interleaved({"cadpipe": cadpipe, "fcl": fcl_sampled}, repeat)
+    checked = sum(len(s) for s in states)
+    truth = np.array(truth)
+    print(f"Part 1: {count} motions of {step} rad in the window cell ({int(truth.sum())} collide "
+          f"between their free ends at one of {DENSE} states); medians of {repeat} runs")
+    for name, label in (("cadpipe", "cadpipe check_motion (proof)"),
+                        ("fcl", f"python-fcl loop at OMPL's resolution ({checked / count:.1f} "
+                                "states/motion)")):
+        said = np.array(results[name])
+        missed = int((truth & ~said).sum())
+        print(f"  {label:58s} {seconds[name] / count * 1e3:8.2f} ms/motion  "
+              f"missed {missed}/{int(truth.sum())}")
+    print(f"  per FCL-checked state: cadpipe {seconds['cadpipe'] / checked * 1e6:.0f} us, "
+          f"FCL {seconds['fcl'] / checked * 1e6:.0f} us "
+          f"(cadpipe/FCL {seconds['cadpipe'] / seconds['fcl']:.2f}x)")
+    few = pairs[:5]                   # the python-fcl loop at the dense states (no proof yet)
+    start = time.perf_counter()
+    for a, b in few:
+        any(loop(q[None]) for q in a + t[:, None] * (b - a))
+    dense = (time.perf_counter() - start) / len(few)
+    print(f"  python-fcl loop at all {DENSE} dense states: {dense * 1e3:.0f} ms/motion "
+          f"(cadpipe {seconds['cadpipe'] / count / dense:.3f}x of it)")
+
+
+def plan_with(robot, world, loop, validators, seconds=60.0):
+    """``(path, states, motions, plan seconds)`` of one RRTConnect plan."""
+    from ompl import geometric
+
+    from cadpipe import planning
+
+    counter = planning.Counter()
+    start = time.perf_counter()
+    if validators == "cadpipe":
+        try:
+            path = planning.plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds,
+                                 counter=counter, step=0.5)
+        except planning.PlanningError:
+            path = None
+        return path, counter.states, counter.motions, time.perf_counter() - start
+    space, bounds = planning.joint_space(robot)
+    simple = geometric.SimpleSetup(space)
+    simple._keep = bounds                         # OMPL holds it by reference
+    count = len(robot.actuated)
+
+    def valid(state):
+        counter.states += 1
+        return not loop(np.array([state[k] for k in range(count)])[None])
+
+    simple.setStateValidityChecker(valid)          # OMPL's discrete motion validator stays
+    information = simple.getSpaceInformation()
+    information.setStateValidityCheckingResolution(RESOLUTION)
+    planner = geometric.RRTConnect(information)
+    planner.setRange(0.5)
+    simple.setPlanner(planner)
+    space = simple.getStateSpace()
+    ends = []
+    for q in (plan_panda.START, plan_panda.GOAL):
+        s = space.allocState()
+        for k, v in enumerate(q):
+            s[k] = float(v)
+        ends.append(s)
+    simple.setStartAndGoalStates(*ends)
+    solved = simple.solve(seconds)
+    if not solved:
+        return None, counter.states, 0, time.perf_counter() - start
+    simple.simplifySolution()
+    path = np.array([[s[k] for k in range(count)] for s in simple.getSolutionPath().getStates()])
+    return path, counter.states, 0, time.perf_counter() - start
+
+
+def part_planning(robot, world, loop, plans):
+    t = np.linspace(0.0, 1.0, 400)
+    print(f"Part 2: RRTConnect (range 0.5), start -> goal through the window, {plans} plans "
+          "each, interleaved")
+    rows = {"cadpipe": [], "fcl": []}
+    for _ in range(plans):
+        for name in rows:
+            path, states, moves, seconds = plan_with(robot, world, loop, name)
+            bad = None
+            if path is not None:
+                dense = np.concatenate([a + t[:, None] * (b - a) for a, b in
+                                        zip(path[:-1], path[1:])])
+                bad = bool(robot_collides(world, robot.name, dense).any())
+            rows[name].append((seconds, states, moves, bad))
+    for name, label in (("cadpipe", "cadpipe validators (continuous motions)"),
+                        ("fcl", "FCL loop + OMPL discrete motion validator")):
+        r = rows[name]
+        solved = [x for x in r if x[3] is not None]
+        print(f"  {label:44s} {len(solved)}/{len(r)} solved  "
+              f"{len(solved) / sum(x[0] for x in r):6.3f} plans/s  "
+              f"median {np.median([x[0] for x in r]):6.2f} s  "
+              f"validity calls {np.median([x[1] for x in r]):7.0f}  "
+              f"colliding between states {sum(x[3] for x in solved)}/{len(solved)}")
+
+
+def kdtree_baseline(tree, a, b, points, radius, k=8):
+    """The glue of issue 11: nearest segments by midpoint, projected, no exactness check."""
+    _, units = tree.query(points, k=k)
+    axis = b[units] - a[units]
+    rel = points[:, None] - a[units]
+    t = np.clip(np.einsum("mki,mki->mk", rel, axis) / np.einsum("mki,mki->mk", axis, axis),
+                0.0, 1.0)
+    d = np.linalg.norm(rel - t[..., None] * axis, axis=2)
+    return d.min(axis=1) - radius
+
+
+def part_fixture(repeat):
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    t = np.linspace(0, 6 * np.pi, 300)
+    centres = np.stack([np.cos(t), np.sin(t), 0.1 * t], axis=1)
+    pipe = Pipe(Path(centres), radius=0.1)
+    rng = np.random.default_rng(0)
+    near = centres[rng.integers(0, 300, 500_000)] + rng.normal(0, 0.08, (500_000, 3))
+    box = rng.uniform([-1.3, -1.3, -0.2], [1.3, 1.3, 2.1], (500_000, 3))
+    a, b = centres[:-1], centres[1:]
+    tree = cKDTree(0.5 * (a + b))
+    radius = float(pipe.ring_radii[0])
+    mesh = pipe.mesh().to_trimesh() if hasattr(pipe.mesh(), "to_trimesh") else \
+        trimesh.Trimesh(pipe.mesh().vertices, pipe.mesh().faces)
+    print(f"Part 3: fixture queries, 500,000 points, 300-point helix pipe; medians of {repeat}")
+    for label, points in (("near the pipe", near), ("in its bounding box", box)):
+        runs = {"cadpipe": lambda: locate(pipe, points),
+                "kdtree": lambda: kdtree_baseline(tree, a, b, points, radius)}
+        seconds, results = interleaved(runs, repeat)
+        wrong = np.abs(results["kdtree"] - results["cadpipe"].signed_distance) > 1e-9
+        print(f"  {label}:")
+        print(f"    cadpipe locate (5 answers, exact)         {len(points) / seconds['cadpipe']:10.0f}"
+              " points/s")
+        print(f"    KD-tree + projection (distance only)      {len(points) / seconds['kdtree']:10.0f}"
+              f" points/s  wrong distance at {int(wrong.sum())} points")
+    sub = near[:2000]
+    start = time.perf_counter()
+    trimesh.proximity.signed_distance(mesh, sub)
+    seconds = time.perf_counter() - start
+    print(f"    trimesh proximity.signed_distance (mesh)  {len(sub) / seconds:10.0f} points/s")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--motions", type=int, default=100)
+    parser.add_argument("--plans", type=int, default=5)
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--parts", default="123")
+    args = parser.parse_args()
+    robot, world, loop = cell()
+    if "1" in args.parts:
+        for step in (0.5, 1.5):
+            part_motions(robot, world, loop, args.motions, args.repeat, step)
+    if "2" in args.parts:
+        part_planning(robot, world, loop, args.plans)
+    if "3" in args.parts:
+        part_fixture(args.repeat)
+
+
+if __name__ == "__main__":
+    main()
