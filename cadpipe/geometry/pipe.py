@@ -21,7 +21,7 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
-from cadpipe.geometry.clearance import BALL_REACH, BALL_SIDES
+from cadpipe.geometry.clearance import BALL_REACH, BALL_SIDES, Folds
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis
@@ -305,27 +305,43 @@ class Pipe:
             "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
-    def folds(self):
-        """Where the tube would cut through itself: a
-        :class:`~cadpipe.geometry.clearance.Folds` (false when the tube is clean).
+    def folds(self) -> "Folds":
+        """Where the tube would cut through itself.
 
         Checks, cheapest first, miter limits, rings that overlap within a segment
         (the radius exceeds the local bend radius) and stretches apart along the
         path that come closer than the tube reaches there, miter tips included.
+
+        Returns
+        -------
+        folds : Folds
+            False when the tube is clean; else its findings and the segments a union
+            merges (:class:`~cadpipe.geometry.clearance.Folds`).
         """
         return self._tubes.folds()[0]
 
-    def self_intersection_findings(self):
-        """Where the tube would cut through itself: a list of human-readable findings."""
+    def self_intersection_findings(self) -> list[str]:
+        """Where the tube would cut through itself.
+
+        Returns
+        -------
+        findings : list of str
+            Empty for a tube that does not cut through itself.
+        """
         return list(self.folds().messages)
 
-    def self_intersections(self):
+    def self_intersections(self) -> list[str]:
         """Deprecated: :meth:`self_intersection_findings`."""
         _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
         return self.self_intersection_findings()
 
-    def mesh(self):
+    def mesh(self) -> Mesh:
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
+
+        Returns
+        -------
+        mesh : Mesh
+            The tube, or where it would overlap itself the swept solid.
 
         A clean tube is its rings stitched together. Where it would overlap itself the
         result is the swept solid instead (see ``strict``): the clean stretches as
