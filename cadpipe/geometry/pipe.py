@@ -21,6 +21,7 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
+from cadpipe.geometry.clearance import BALL_REACH, BALL_SIDES, Folds
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis
@@ -110,9 +111,15 @@ class Pipe:
         Largest allowed stretch ``1/cos(turn/2)`` of a mitered ring (default 4, as SVG).
     cap_segments : int, optional
         Latitude steps of a round cap or ball joint (default ``max(2, sides // 4)``).
-    repair : bool
-        If the tube would intersect itself, build the solid as a manifold3d union of
-        its convex units instead of raising :class:`GeometryError`.
+    strict : bool
+        False (default): where the tube would overlap itself (a fold, a return, a
+        corner beyond ``miter_limit``), :meth:`mesh` builds the swept solid there, the
+        manifold3d union of that stretch's convex units (a corner beyond the miter
+        limit becomes a ball joint); ``mesh().attributes["merged"]`` lists the merged
+        stretches. True: raise :class:`GeometryError` naming the place instead.
+    repair : bool, optional
+        Deprecated alias: ``repair=True`` is the default, ``repair=False`` is
+        ``strict=True``.
     """
 
     path: Path
@@ -129,7 +136,8 @@ class Pipe:
     bend_radius: float | None = None
     miter_limit: float = 4.0
     cap_segments: int | None = None
-    repair: bool = False
+    strict: bool = False
+    repair: bool | None = None
 
     def __post_init__(self):
         set_ = partial(object.__setattr__, self)
@@ -144,7 +152,12 @@ class Pipe:
         set_("frame", as_choice(self.frame, "frame", FRAME_MODES))
         set_("corners", as_choice(self.corners, "corners", CORNER_STYLES))
         set_("envelope", bool(self.envelope))
-        set_("repair", bool(self.repair))
+        if self.repair is not None:
+            warnings.warn("Pipe(repair=...) is deprecated: overlaps are merged by default; "
+                          "pass strict=True to refuse them", DeprecationWarning, stacklevel=3)
+            set_("strict", not self.repair)
+            set_("repair", None)
+        set_("strict", bool(self.strict))
         for name in ("normal", "end_normal"):
             value = getattr(self, name)
             set_(name, None if value is None else tuple(as_direction(value, name).tolist()))
@@ -357,25 +370,35 @@ class Pipe:
             "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
-    def self_intersections(self) -> list[str]:
-        """Deprecated: :meth:`self_intersection_findings`."""
-        _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
-        return self.self_intersection_findings()
+    def folds(self) -> "Folds":
+        """Where the tube would cut through itself.
+
+        Checks, cheapest first, miter limits, rings that overlap within a segment
+        (the radius exceeds the local bend radius) and stretches apart along the
+        path that come closer than the tube reaches there, miter tips included.
+
+        Returns
+        -------
+        folds : Folds
+            False when the tube is clean; else its findings and the segments a union
+            merges (:class:`~cadpipe.geometry.clearance.Folds`).
+        """
+        return self._tubes.folds()[0]
 
     def self_intersection_findings(self) -> list[str]:
-        """Where the tube would cut through itself: a list of human-readable findings.
+        """Where the tube would cut through itself.
 
         Returns
         -------
         findings : list of str
             Empty for a tube that does not cut through itself.
-
-
-        Checks miter limits, rings that overlap within a segment (the radius exceeds
-        the local bend radius) and non-neighbouring parts of the tube closer than
-        the sum of their radii.
         """
-        return self._tubes.self_intersection_findings()[0]
+        return list(self.folds().messages)
+
+    def self_intersections(self) -> list[str]:
+        """Deprecated: :meth:`self_intersection_findings`."""
+        _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
+        return self.self_intersection_findings()
 
     def mesh(self) -> Mesh:
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
@@ -383,21 +406,25 @@ class Pipe:
         Returns
         -------
         mesh : Mesh
+            The tube, or where it would overlap itself the swept solid.
 
-        Raises :class:`GeometryError` if the tube intersects itself, unless the pipe
-        was made with ``repair=True``.
+        A clean tube is its rings stitched together. Where it would overlap itself the
+        result is the swept solid instead (see ``strict``): the clean stretches as
+        they are, united through manifold3d with the convex units of the stretches
+        that overlap; ``attributes["merged"]`` names them. With ``strict=True`` such a
+        tube raises :class:`GeometryError` naming the place.
         """
-        problems = self.self_intersection_findings()
-        if problems:
-            if not self.repair:
-                raise GeometryError(f"the pipe intersects itself: {problems[0]}"
-                                    + (f" (and {len(problems) - 1} more)" if len(problems) > 1
-                                       else "")
-                                    + "; smooth the path or reduce the radius, or repair it",
-                                    fix={"repair": True})
-            return self._repaired_mesh()
-        vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-        return Mesh.trusted(vertices, faces, attributes=self.attributes)
+        folds = self._tubes.folds(first_only=self.strict)[0]
+        if not folds:
+            vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
+            return Mesh.trusted(vertices, faces, attributes=self.attributes)
+        if self.strict:
+            problems = folds.messages
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
+                                "path, reduce the radius, or build the swept solid instead",
+                                fix={"strict": False})
+        return self._swept_mesh(folds)
 
     def surface(self, *, cap_start: bool = True,
                 cap_end: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -524,14 +551,219 @@ class Pipe:
         return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
                 np.concatenate(end_r))
 
-    def _repaired_mesh(self):
-        """Union of the convex units through manifold3d: valid even where the tube folds."""
+    def _swept_mesh(self, folds):
+        """The tube with each stretch that folds replaced by the union of its convex
+        units (:func:`_units`), the clean stretches kept as they are, all united by
+        manifold3d and welded at float32 precision (:func:`welded_solid`)."""
         import manifold3d
 
-        overlap = 1e-6 * float(self.ring_radii.max())
-        hulls = [manifold3d.Manifold.hull_points(p) for p in self.convex_pieces(overlap)]
-        solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
-        return Mesh.from_manifold(solid, attributes={**self.attributes, "repaired": True})
+        merged = np.zeros(len(self.path.segments), bool)
+        merged[folds.segments] = True
+        solids = [manifold3d.Manifold.hull_points(p)
+                  for p in _units(self, folds.segments, folds.joints, tongue=TONGUE)]
+        solids += [self._piece(a, b).to_manifold("pipe") for a, b in _runs(~merged, self.closed)]
+        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+        stretches = _runs(merged, self.closed)
+        arc = self.path.arc_length
+        spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
+                                     else self.path.length)) for a, b in stretches]
+        names = "; ".join(f"path points {a}..{(b + 1) % len(arc)} (arc length {s:.6g} to "
+                          f"{e:.6g})" for (a, b), (s, e) in zip(stretches, spans))
+        return welded_solid(solid, attributes={
+            **self.attributes, "merged": names,
+            "merged_arc_lengths": tuple(x for span in spans for x in span),
+            "folds": folds.messages[0]})
+
+    def _piece(self, first, last):
+        """The closed solid of the clean segments ``first..last`` (wrapping around a
+        closed pipe): their rings, flat caps where the stretch is cut, the pipe's own
+        caps at its ends."""
+        n = len(self.path)
+        rows = np.arange(first, first + (last - first) % len(self.path.segments) + 2) % n
+        axes = self._tubes.axes[rows].copy()
+        if self.closed:                            # rings past the seam carry its shift
+            alpha = 2 * np.pi * self.seam_shift / self.sides
+            past = np.flatnonzero(np.diff(rows) < 0)
+            if past.size:
+                after = slice(int(past[0]) + 1, None)
+                a0, a1 = axes[after, 0].copy(), axes[after, 1].copy()
+                axes[after, 0] = np.cos(alpha) * a0 + np.sin(alpha) * a1
+                axes[after, 1] = np.cos(alpha) * a1 - np.sin(alpha) * a0
+        first_style, last_style = self.cap_styles
+        start = (cap_axes(self._tubes, 0, -1, self, first_style)
+                 if not self.closed and rows[0] == 0 else None)
+        end = (cap_axes(self._tubes, n - 1, +1, self, last_style)
+               if not self.closed and rows[-1] == n - 1 else None)
+        runs = [axes if start is None else np.concatenate([start[0][::-1], axes]),]
+        if end is not None:
+            runs[0] = np.concatenate([runs[0], end[0]])
+        surface = Surface()
+        ring = int(surface.add_rings(runs, [self.sides])[0])
+        for cap, at, at_end in ((start, ring, False),
+                                (end, ring + (len(runs[0]) - 1) * self.sides, True)):
+            apex = None if cap is None or cap[1] is None else surface.add_vertices(
+                1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
+            surface.add_faces(self.sides if apex is not None else self.sides - 2,
+                              partial(write_fan, at, self.sides, apex, at_end))
+        vertices, faces, _ = surface.build()
+        return Mesh.trusted(vertices, faces)
+
+
+#: merged units reach this fraction of the ring radius into their neighbours (see _units)
+TONGUE = 1e-3
+
+
+def welded_solid(solid, **kwargs):
+    """The :class:`Mesh` of a manifold3d ``solid`` simplified (manifold3d's own edge
+    collapses) to what float32 can tell apart at its size (:data:`FLOAT32_WELD` of
+    its largest coordinate), then every cluster of vertices still closer than that
+    (where sheets touch) merged into one and the faces that collapse dropped.
+
+    A union leaves such clusters where its pieces meet at grazing angles; STL, 3MF,
+    OBJ and PLY files (float32) would merge them anyway, into edges shared by more
+    than two faces. Where merging at that distance would not leave a closed,
+    oriented 2-manifold, smaller distances are tried, down to one unit in float32's
+    last place; failing that the float64 solid is returned as manifold3d made it.
+    """
+    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
+    size = max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    plain = Mesh.from_manifold(solid, **kwargs)
+    simple = Mesh.from_manifold(solid.as_original().simplify(FLOAT32_WELD * size), **kwargs)
+    for mesh, ulps in ((simple, 16), (plain, 16), (plain, 4), (plain, 1)):
+        welded = _weld(mesh, ulps * 2.0 ** -23 * size, kwargs)
+        if welded is not None:
+            return welded
+    return plain
+
+
+def _weld(mesh, tol, kwargs):
+    """``mesh`` with its vertex clusters closer than ``tol`` merged, or None if that
+    does not leave a closed, oriented surface."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    vertices, faces = mesh.vertices, mesh.faces
+    pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
+    if not len(pairs):
+        return mesh
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(vertices), len(vertices)))
+    count, label = connected_components(graph, directed=False)
+    faces = label[faces]
+    keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
+    merged = np.empty((count, 3))
+    merged[label] = vertices
+    faces = faces[keep]
+    # sheets that touched along faces: such a face now comes twice, facing both ways
+    _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                                 return_counts=True)
+    faces = faces[counts[index.reshape(-1)] == 1]
+    used, faces = np.unique(faces, return_inverse=True)
+    welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
+    return welded if len(faces) and welded.is_oriented else None
+
+
+#: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
+FLOAT32_WELD = 16 * 2.0 ** -23
+
+
+def _runs(mask, closed):
+    """``[(first, last)]`` index ranges of the runs of True in ``mask``; around a closed
+    pipe a run may wrap (``last < first``)."""
+    n = len(mask)
+    if mask.all():
+        return [(0, n - 1)]
+    shift = int(np.argmin(mask)) + 1 if closed else 0        # start just after a False
+    rolled = np.roll(mask, -shift)
+    edges = np.diff(np.concatenate([[0], rolled.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [((a + shift) % n, (b + shift) % n) for a, b in zip(starts.tolist(), stops.tolist())]
+
+
+def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
+    """Point sets whose convex hulls together make the tube along ``segments``.
+
+    Each segment's unit is its two end rings; at a corner in ``joints`` (beyond the
+    miter limit) the rings there are cut square to the segment instead and a ball
+    (:func:`_ball`) holds the corner. Round caps of an open pipe join the units of
+    its end segments. Where another segment continues a unit, its ring there is
+    pushed ``overlap`` along the unit's own segment, and a ``tongue`` (a fraction of
+    the ring radius) adds the ring shrunk by that fraction and moved as far into the
+    next segment: the hulls then cross their neighbours at steep angles instead of
+    sharing a face (manifold3d may leave a shared face's corners doubled).
+    """
+    path = pipe.path
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
+    n, count = len(path), len(path.segments)
+    joints = np.asarray(joints, np.int64)
+    at_joint = np.zeros(n, bool)
+    at_joint[joints] = True
+    directions, centres, lengths = path.directions, path.points, path.segment_lengths
+    radii = pipe.ring_radii
+
+    def into(p, seg, sign):
+        """Ring ``p`` shrunk and moved into segment ``seg`` (``sign``: along or back)."""
+        step = min(tongue * float(radii[p]), 0.25 * float(lengths[seg]))
+        return centres[p] + (1 - tongue) * (rings[p] - centres[p]) + sign * step * directions[seg]
+
+    def square(k, p):
+        """Segment k's cross-section at its end ``p`` (a joint): the prism's section,
+        from its other end's ring, or a fresh polygon when both ends are joints."""
+        q = (k + 1) % n if p == k else k
+        d = directions[k]
+        if at_joint[q]:
+            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+            e1 /= np.linalg.norm(e1)
+            offsets = float(radii[p]) * (np.outer(np.cos(2 * np.pi * np.arange(pipe.sides)
+                                                         / pipe.sides), e1)
+                                         + np.outer(np.sin(2 * np.pi * np.arange(pipe.sides)
+                                                           / pipe.sides), np.cross(d, e1)))
+        else:
+            offsets = rings[q] - centres[q]
+            offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
+        return centres[p] + offsets
+
+    pieces = []
+    for k in np.asarray(segments).tolist():
+        d = directions[k]
+        ends = []
+        for p, sign, other in ((k, -1.0, k - 1), ((k + 1) % n, 1.0, k + 1)):
+            ring = rings[p]
+            inner = pipe.closed or 0 <= other < count
+            if at_joint[p]:
+                ring = square(k, p)
+            elif inner and tongue:
+                ends.append(into(p, other % count, sign))
+            ends.append(ring + (sign * overlap * inner) * d)
+        pieces.append(np.concatenate(ends))
+    for k in joints.tolist():
+        pieces.append(_ball(centres[k], float(radii[k])))
+    if not pipe.closed:
+        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
+                                      (n - 1, 1, count - 1, pipe.cap_styles[1])):
+            end_cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+            if end_cap is not None and seg in set(np.asarray(segments).tolist()):
+                axes, pole = end_cap
+                cap = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
+                inside = into(row, seg, -sign) if tongue else rings[row] - (
+                    sign * overlap) * directions[seg]
+                tip = np.empty((0, 3)) if pole is None else pole[None]
+                pieces.append(np.concatenate([rings[row], inside, cap, tip]))
+    return pieces
+
+
+def _ball(centre, radius):
+    """(P, 3) points whose convex hull contains the ball of ``radius`` about ``centre``
+    with a margin (:data:`~cadpipe.geometry.clearance.BALL_REACH`): a latitude-longitude
+    sphere whose faces all lie beyond the ball."""
+    lon = 2 * np.pi * np.arange(BALL_SIDES) / BALL_SIDES
+    lat = np.pi * (np.arange(1, BALL_SIDES // 2) / (BALL_SIDES // 2) - 0.5)
+    ring = np.stack([np.cos(lat)[:, None] * np.cos(lon), np.cos(lat)[:, None] * np.sin(lon),
+                     np.broadcast_to(np.sin(lat)[:, None], (len(lat), len(lon)))], -1)
+    unit = np.concatenate([ring.reshape(-1, 3), [[0, 0, -1], [0, 0, 1]]])
+    return centre + (BALL_REACH * radius) * unit
 
 
 def tubes_of(pipes):
