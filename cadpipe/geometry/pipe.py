@@ -651,7 +651,8 @@ def _weld(mesh, tol, kwargs):
                        shape=(len(vertices), len(vertices)))
     count, label = connected_components(graph, directed=False)
     faces = label[faces]
-    keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & (faces[:, 2] != faces[:, 0])
+    keep = ((faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+            & (faces[:, 2] != faces[:, 0]))
     merged = np.empty((count, 3))
     merged[label] = vertices
     faces = faces[keep]
