@@ -243,6 +243,7 @@ def test_the_safety_pipe_contains_the_tool_path(parallel, cell):
     q = np.loadtxt(cell / "traj" / "clear.csv", delimiter=",", skiprows=1)[:, 1:]
     robot = Robot.from_urdf(ARM)
     pipe = trimesh.load(out / "clear" / "safety_pipe.stl")
+    pipe.apply_scale(1e-3)                         # STL is written in millimetres
     assert pipe.is_watertight and pipe.volume > 0
     dense, _ = densify(q, 0.01)
     tips = robot.link_pose_array(dense)[:, list(robot.link_meshes).index("tool"), :3, 3]

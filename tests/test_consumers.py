@@ -43,10 +43,6 @@ def demo(tmp_path_factory):
     return folder
 
 
-#: examples the slicer refuses for a reason outside the writers: the round-capped open
-#: mouths of hollow parts end in a knife edge (the envelope engineer's fix, issue 16)
-KNIFE_EDGE = pytest.mark.xfail(strict=True, reason="open mouth ends in a knife edge: "
-                                                   "no extrusions in the first layer")
 
 
 @pytest.fixture(scope="module", params=[p.name for p in EXAMPLES])
@@ -81,10 +77,8 @@ def test_prusaslicer_slices_the_demo_parts(demo, tmp_path, name):
     assert 250 < layers < 450
 
 
-def test_prusaslicer_slices_each_example(example, tmp_path, request):
+def test_prusaslicer_slices_each_example(example, tmp_path):
     folder, stem = example
-    if stem == "y_junction":
-        request.applymarker(KNIFE_EDGE)
     # the STL: the 3MF writer's output is sliced on the demo, and read by lib3mf here too
     assert slice_file(folder / f"{stem}.stl", tmp_path) > 0
 

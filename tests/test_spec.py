@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import cadpipe
+from cadpipe.io.scene import meters_per_unit
 from cadpipe import HollowChain, HollowPipe, Junction, Pipe, primitives
 from cadpipe.cli import main
 from cadpipe.io.spec import read
@@ -43,7 +44,9 @@ def test_every_example_spec_builds_one_watertight_solid(spec, tmp_path):
     assert read_spec.outputs, "examples list their outputs"
     out = tmp_path / "example.stl"                        # and from the command line
     assert main(["build", str(spec), "-o", str(out), "--quiet"]) == 0
-    assert cadpipe.Mesh.load(out).volume == pytest.approx(solid.volume, rel=1e-6)
+    mm_per_unit = 1000 * meters_per_unit(read_spec.assembly.units)   # STL is in millimetres
+    assert cadpipe.Mesh.load(out).volume == pytest.approx(solid.volume * mm_per_unit ** 3,
+                                                          rel=1e-6)
 
 
 def test_a_robot_cell_builds_its_parts_and_the_posed_links(tmp_path, capsys):

@@ -143,7 +143,8 @@ class Pipe:
         set_ = partial(object.__setattr__, self)
         source = self.path if isinstance(self.path, Path) else Path(self.path)
         radius = as_positive(self.radius, "radius", count=len(source))
-        caps = self.caps if isinstance(self.caps, str) else tuple(self.caps)
+        caps = self.caps if isinstance(self.caps, (str, tuple, list)) else (self.caps,)
+        caps = caps if isinstance(caps, str) else tuple(caps)
         if isinstance(caps, tuple) and len(caps) != 2:
             raise InputError(f"expected 'flat', 'round' or a (start, end) pair, got {caps!r}",
                              key="caps")
