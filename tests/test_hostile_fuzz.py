@@ -51,7 +51,7 @@ HOSTILE_NUMBERS = [0.0, -1.0, math.nan, math.inf, -math.inf, 1e308, -1e308, 1e-3
 #: self-intersection check does not see that growth, so an end cap can cut another
 #: stretch of a jagged path. Listed so every other wrong result still fails the test, and
 #: these fail it once they are fixed.
-KNOWN_WRONG = {"pipes 436", "pipes 2027"}
+KNOWN_WRONG = set()
 
 
 class Tally:

@@ -399,23 +399,56 @@ def _separated(tubes, i, j, sides):
     """(P,) True where a candidate axis separates the units of columns ``i``, ``j``."""
     pi, di = _unit_points(tubes, i, sides)
     pj, dj = _unit_points(tubes, j, sides)
-    axes = []
-    for pts, d in ((pi, di), (pj, dj)):
-        ring = pts[:, :sides]
-        edge = np.roll(ring, -1, axis=1) - ring
-        axes += [np.cross(edge, d[:, None]), d[:, None]]
-        for k in (0, 2):                                    # the planes of both end rings
-            rk = pts[:, k * sides:(k + 1) * sides]
-            axes.append(np.cross(rk[:, 1] - rk[:, 0], rk[:, sides // 2 + 1] - rk[:, 0])[:, None])
-    axes.append((pi.mean(axis=1) - pj.mean(axis=1))[:, None])
-    axes = np.concatenate(axes, axis=1)                                # (P, A, 3)
+    return _apart(pi, pj, [_unit_axes(pi, di, sides), _unit_axes(pj, dj, sides)])
+
+
+def _unit_axes(pts, d, sides):
+    """(P, A, 3) the face normals of units (points as :func:`_unit_points` gives them):
+    side faces, the segment direction, both end rings' planes."""
+    ring = pts[:, :sides]
+    edge = np.roll(ring, -1, axis=1) - ring
+    axes = [np.cross(edge, d[:, None]), d[:, None]]
+    for k in (0, 2):                                    # the planes of both end rings
+        rk = pts[:, k * sides:(k + 1) * sides]
+        axes.append(np.cross(rk[:, 1] - rk[:, 0], rk[:, sides // 2 + 1] - rk[:, 0])[:, None])
+    return np.concatenate(axes, axis=1)
+
+
+def _apart(pi, pj, axes):
+    """(P,) True where one of ``axes`` (list of (P, A_k, 3)), or the line between the
+    centres, separates the hulls of point sets ``pi`` and ``pj`` ((P, K, 3) each)."""
+    axes = np.concatenate([*axes, (pi.mean(axis=1) - pj.mean(axis=1))[:, None]], axis=1)
     size = np.linalg.norm(axes, axis=2, keepdims=True)
     axes = axes / np.where(size > 0, size, 1.0)
+    # about the pair's middle: a touch is judged against their size, not their distance
+    # from the origin
+    middle = pi.mean(axis=1, keepdims=True)
+    pi, pj = pi - middle, pj - middle
     a = np.einsum("pak,pvk->pav", axes, pi)
     b = np.einsum("pak,pvk->pav", axes, pj)
     tol = 1e-9 * (np.abs(pi).max(axis=(1, 2)) + np.abs(pj).max(axis=(1, 2)))[:, None]
     apart = (a.max(axis=2) <= b.min(axis=2) + tol) | (b.max(axis=2) <= a.min(axis=2) + tol)
     return apart.any(axis=1)
+
+
+def piece_meets_units(tubes, points, cols):
+    """(P,) True where the convex hull of ``points`` ((K, 3), e.g. an end cap) overlaps
+    the unit of each segment column in ``cols`` (tested as :func:`_units_meet` does,
+    with the hull's own face normals as further axes); columns of one tube."""
+    from scipy.spatial import ConvexHull
+
+    hit = np.zeros(len(cols), bool)
+    if not len(cols):
+        return hit
+    normals = ConvexHull(points, qhull_options="QJ").equations[:, :3]
+    sides = int(tubes.sides[tubes.groups.index[cols[0]]])
+    for start in range(0, len(cols), UNIT_BLOCK):
+        block = slice(start, start + UNIT_BLOCK)
+        pj, dj = _unit_points(tubes, cols[block], sides)
+        pi = np.broadcast_to(points, (len(pj), *points.shape))
+        hit[block] = ~_apart(pi, pj, [np.broadcast_to(normals, (len(pj), *normals.shape)),
+                                      _unit_axes(pj, dj, sides)])
+    return hit
 
 
 def _neighbours(groups, cols):

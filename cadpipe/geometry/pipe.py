@@ -21,7 +21,8 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
-from cadpipe.geometry.clearance import BALL_REACH, BALL_SIDES, Folds
+from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, piece_meets_units,
+                                        reach, segment_distance)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis
@@ -384,7 +385,58 @@ class Pipe:
             False when the tube is clean; else its findings and the segments a union
             merges (:class:`~cadpipe.geometry.clearance.Folds`).
         """
-        return self._tubes.folds()[0]
+        return self._folds()
+
+    def _folds(self, first_only=False):
+        """:meth:`folds`; with ``first_only`` the checks stop at the first kind that
+        finds anything (all a refusal needs)."""
+        folds = self._tubes.folds(first_only=first_only)[0]
+        if folds and first_only:
+            return folds
+        messages, segments = self._cap_folds
+        if not messages:
+            return folds
+        return Folds(folds.messages + messages, np.union1d(folds.segments, segments),
+                     folds.joints)
+
+    @cached_property
+    def _cap_folds(self):
+        """Where an end cap (round, or an envelope's flat cap reaching ``r`` past the
+        end) overlaps the unit of a segment other than its own: findings, and the
+        segments a union merges (the cap's own and those it reaches)."""
+        empty = ((), np.empty(0, np.int64))
+        count = len(self.path.segments)
+        if self.closed or count < 2:
+            return empty
+        tubes, lines = self._tubes, self._tubes.lines
+        r = reach(tubes)
+        reach_seg = np.maximum(r[:-1], r[1:])
+        messages, merged = [], []
+        for row, sign, seg, style, name in ((0, -1, 0, self.cap_styles[0], "start"),
+                                            (count, 1, count - 1, self.cap_styles[1], "end")):
+            cap = cap_axes(tubes, row, sign, self, style)
+            if cap is None:
+                continue
+            points = np.concatenate([self.rings()[row],
+                                     np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3),
+                                     np.empty((0, 3)) if cap[1] is None else cap[1][None]])
+            centre = points.mean(axis=0)
+            size = float(np.linalg.norm(points - centre, axis=1).max())
+            cols = np.delete(np.arange(count), seg)
+            gap = segment_distance(np.broadcast_to(centre[:, None], (3, len(cols))),
+                                   np.zeros((3, len(cols))), lines.xyz[:, cols],
+                                   lines.segments[:, cols])
+            cols = cols[gap < size + reach_seg[cols]]
+            hit = cols[piece_meets_units(tubes, points, cols)]
+            if hit.size:
+                k = int(hit[0])
+                messages.append(
+                    f"the {name} cap (caps={style!r}{', envelope=True' if self.envelope else ''}"
+                    f") reaches the tube between path points {k} and {k + 1} (arc length "
+                    f"{self.path.arc_length[k]:.6g}); lengthen the {name} segment or reduce "
+                    "the radius" + (", or use caps='flat'" if style == "round" else ""))
+                merged += [seg, *hit.tolist()]
+        return tuple(messages), np.unique(np.asarray(merged, np.int64))
 
     def self_intersection_findings(self) -> list[str]:
         """Where the tube would cut through itself.
@@ -415,7 +467,8 @@ class Pipe:
         that overlap; ``attributes["merged"]`` names them. With ``strict=True`` such a
         tube raises :class:`GeometryError` naming the place.
         """
-        folds = self._tubes.folds(first_only=self.strict)[0]
+        self._require_float32()
+        folds = self._folds(first_only=self.strict)
         if not folds:
             vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
             return Mesh.trusted(vertices, faces, attributes=self.attributes)
@@ -426,6 +479,20 @@ class Pipe:
                                 "path, reduce the radius, or build the swept solid instead",
                                 fix={"strict": False})
         return self._swept_mesh(folds)
+
+    def _require_float32(self):
+        """Refuse a tube finer than float32 coordinates resolve at its distance from the
+        origin: STL, 3MF, OBJ, PLY and GLB files would weld its rings shut."""
+        edge = 2 * float(self.ring_radii.min()) * np.sin(np.pi / self.sides)
+        feature = min(edge, float(self.path.segment_lengths.min()))
+        largest = float(np.abs(self.path.points).max()) + float(self.ring_radii.max())
+        step = FLOAT32_STEPS * float(np.finfo(np.float32).eps) * largest
+        if feature < step:
+            what = "ring edges" if edge <= feature else "segments"
+            raise GeometryError(
+                f"the tube's {what} ({feature:.3g} long) are finer than float32 files can "
+                f"hold {largest:.3g} from the origin (steps of {step:.3g} there); move the "
+                "path nearer the origin or use a larger radius", key="radius")
 
     def surface(self, *, cap_start: bool = True,
                 cap_end: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -457,7 +524,7 @@ class Pipe:
         return self.convex_pieces(overlap)
 
     def convex_pieces(self, overlap: float = 0.0) -> list[np.ndarray]:
-        """Convex pieces whose union is the tube: each path unit, plus round caps.
+        """Convex pieces whose union is the tube: each path unit, ball joints, round caps.
 
         Parameters
         ----------
@@ -471,30 +538,14 @@ class Pipe:
             The points whose convex hull is each piece.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
-        unit); a round cap is its end ring, cap rings and pole. ``overlap`` pushes
-        each unit's rings that far outward along its segment, so that neighbouring
-        units overlap instead of merely touching (booleans treat touching solids as
-        apart).
+        unit); at a ball joint (``corners="round"``) the units are cut square at the
+        corner and a ball holds it; a cap is its end ring and the cap's rings and pole.
+        ``overlap`` pushes each unit's rings that far outward along its segment, so that
+        neighbouring units overlap instead of merely touching (booleans treat touching
+        solids as apart). The swept solid is built from these same pieces.
         """
-        rings = self.rings()
-        arriving, leaving, pieces = rings.copy(), rings.copy(), []
-        for row in np.flatnonzero(joint_rows_of(self._tubes, 0, len(rings) - 1, self)):
-            joint = _joint(self._tubes, row, self)[1]
-            arriving[row], leaving[row] = joint[0], joint[-1]
-            pieces.append(joint.reshape(-1, 3))
-        cur = np.arange(len(self.path.segments))
-        nxt = (cur + 1) % len(rings)
-        shift = overlap * self.path.directions[:, None, :]
-        pieces += list(np.concatenate([leaving[cur] - shift, arriving[nxt] + shift], axis=1))
-        if not self.closed:
-            for row, sign, style in ((0, -1, self.cap_styles[0]),
-                                     (len(rings) - 1, 1, self.cap_styles[1])):
-                cap = cap_axes(self._tubes, row, sign, self, style)
-                if cap is not None:
-                    cap_rings = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
-                    pole = np.empty((0, 3)) if cap[1] is None else cap[1][None]
-                    pieces.append(np.concatenate([rings[row], cap_rings, pole]))
-        return pieces
+        rows = np.flatnonzero(joint_rows_of(self._tubes, 0, len(self.path) - 1, self))
+        return _units(self, np.arange(len(self.path.segments)), rows, overlap=overlap)
 
     def collision_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Round cones whose union contains this pipe's mesh: the collision model.
@@ -544,26 +595,53 @@ class Pipe:
                     end_r.append(rho[row:row + 1])
                 else:
                     vertices = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
-                    reach = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
+                    extent = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
                     starts.append(end[None])
                     ends.append(end[None])
-                    start_r.append([max(reach, rho[row])])
-                    end_r.append([max(reach, rho[row])])
+                    start_r.append([max(extent, rho[row])])
+                    end_r.append([max(extent, rho[row])])
         return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
                 np.concatenate(end_r))
 
     def _swept_mesh(self, folds):
         """The tube with each stretch that folds replaced by the union of its convex
         units (:func:`_units`), the clean stretches kept as they are, all united by
-        manifold3d and welded at float32 precision (:func:`welded_solid`)."""
+        manifold3d and welded at float32 precision (:func:`welded_solid`).
+
+        Inside a merged stretch every corner beyond the miter limit, and every ball
+        joint, is a ball with the units cut square at it; a stretch is widened until
+        it ends on plain rings, so a clean piece never ends on a joint."""
         import manifold3d
 
-        merged = np.zeros(len(self.path.segments), bool)
+        n, count = len(self.path), len(self.path.segments)
+        merged = np.zeros(count, bool)
         merged[folds.segments] = True
-        solids = [manifold3d.Manifold.hull_points(p)
-                  for p in _units(self, folds.segments, folds.joints, tongue=TONGUE)]
-        solids += [self._piece(a, b).to_manifold("pipe") for a, b in _runs(~merged, self.closed)]
+        rows = np.arange(n)
+        before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
+        after = np.where(rows < count, rows, -1)
+        corner = (before >= 0) & (after >= 0)
+        ball = corner & (joint_rows_of(self._tubes, 0, n - 1, self)
+                         | (self.miter_stretch > self.miter_limit))
+        ball[folds.joints] = True
+        while True:                         # widen stretches that end on a ball joint
+            touched = ball & (merged[before] | merged[after]) & ~(merged[before]
+                                                                  & merged[after])
+            if not touched.any():
+                break
+            merged[before[touched]] = merged[after[touched]] = True
+        joints = np.flatnonzero(ball & merged[before] & merged[after])
+        # manifold3d's tolerance grows with the coordinates: unite about the pipe's middle
+        low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
+        middle = 0.5 * (low + high)
+        pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE)
+        solids = [manifold3d.Manifold.hull_points(p - middle) for p in pieces]
+        if not merged.all():
+            for a, b in _runs(~merged, self.closed):
+                piece = self._piece(a, b)
+                solids.append(Mesh.trusted(piece.vertices - middle, piece.faces)
+                              .to_manifold("pipe"))
         solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+        solid = solid.translate(tuple(middle.tolist()))
         stretches = _runs(merged, self.closed)
         arc = self.path.arc_length
         spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
@@ -577,35 +655,11 @@ class Pipe:
 
     def _piece(self, first, last):
         """The closed solid of the clean segments ``first..last`` (wrapping around a
-        closed pipe): their rings, flat caps where the stretch is cut, the pipe's own
-        caps at its ends."""
-        n = len(self.path)
-        rows = np.arange(first, first + (last - first) % len(self.path.segments) + 2) % n
-        axes = self._tubes.axes[rows].copy()
-        if self.closed:                            # rings past the seam carry its shift
-            alpha = 2 * np.pi * self.seam_shift / self.sides
-            past = np.flatnonzero(np.diff(rows) < 0)
-            if past.size:
-                after = slice(int(past[0]) + 1, None)
-                a0, a1 = axes[after, 0].copy(), axes[after, 1].copy()
-                axes[after, 0] = np.cos(alpha) * a0 + np.sin(alpha) * a1
-                axes[after, 1] = np.cos(alpha) * a1 - np.sin(alpha) * a0
-        first_style, last_style = self.cap_styles
-        start = (cap_axes(self._tubes, 0, -1, self, first_style)
-                 if not self.closed and rows[0] == 0 else None)
-        end = (cap_axes(self._tubes, n - 1, +1, self, last_style)
-               if not self.closed and rows[-1] == n - 1 else None)
-        runs = [axes if start is None else np.concatenate([start[0][::-1], axes]),]
-        if end is not None:
-            runs[0] = np.concatenate([runs[0], end[0]])
+        closed pipe): laid out by :func:`add_pipe_surfaces` as the whole pipe is, with
+        flat fans where the stretch is cut."""
         surface = Surface()
-        ring = int(surface.add_rings(runs, [self.sides])[0])
-        for cap, at, at_end in ((start, ring, False),
-                                (end, ring + (len(runs[0]) - 1) * self.sides, True)):
-            apex = None if cap is None or cap[1] is None else surface.add_vertices(
-                1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
-            surface.add_faces(self.sides if apex is not None else self.sides - 2,
-                              partial(write_fan, at, self.sides, apex, at_end))
+        add_pipe_surfaces(surface, self._tubes, [self], cap_start=[True], cap_end=[True],
+                          windows=[(first, last)])
         vertices, faces, _ = surface.build()
         return Mesh.trusted(vertices, faces)
 
@@ -626,13 +680,18 @@ def welded_solid(solid, **kwargs):
     oriented 2-manifold, smaller distances are tried, down to one unit in float32's
     last place; failing that the float64 solid is returned as manifold3d made it.
     """
+    if solid.is_empty():
+        raise GeometryError("the swept solid is empty")
     low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
     size = max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    volume = solid.volume()
     plain = Mesh.from_manifold(solid, **kwargs)
     simple = Mesh.from_manifold(solid.as_original().simplify(FLOAT32_WELD * size), **kwargs)
     for mesh, ulps in ((simple, 16), (plain, 16), (plain, 4), (plain, 1)):
         welded = _weld(mesh, ulps * 2.0 ** -23 * size, kwargs)
-        if welded is not None:
+        # a solid finer than float32 resolves at its distance from the origin would
+        # collapse: keep it as manifold3d made it
+        if welded is not None and abs(welded.volume - volume) <= WELD_VOLUME * volume:
             return welded
     return plain
 
@@ -647,7 +706,7 @@ def _weld(mesh, tol, kwargs):
     vertices, faces = mesh.vertices, mesh.faces
     pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
     if not len(pairs):
-        return mesh
+        return mesh if len(faces) and mesh.is_oriented else None
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
                        shape=(len(vertices), len(vertices)))
     count, label = connected_components(graph, directed=False)
@@ -668,6 +727,10 @@ def _weld(mesh, tol, kwargs):
 
 #: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
 FLOAT32_WELD = 16 * 2.0 ** -23
+#: features shorter than this many float32 steps at the largest coordinate are refused
+FLOAT32_STEPS = 4
+#: a weld may change the volume by this fraction at most (else the solid was too fine)
+WELD_VOLUME = 1e-3
 
 
 def _runs(mask, closed):
@@ -831,24 +894,46 @@ def _end_radius(pipe, sign):
     return float(pipe.radii[0 if sign < 0 else -1])
 
 
-def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
+def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None):
     """Lay out the pipes (``tubes``' groups, in order) in ``surface``: their rings, side
-    faces and the requested caps (see :meth:`Pipe.surface`).
+    faces, ball joints and the requested caps (see :meth:`Pipe.surface`).
 
-    Returns the vertex index of each pipe's first and last ring (its own, not a cap's).
+    ``windows`` (per pipe ``(first, last)``, or None for all of it) lays out only the
+    segments ``first..last`` of a pipe (around a closed one they may wrap, ``last <
+    first``): the same rings, joints and caps, closed by a flat fan on the ring where the
+    window cuts the tube. The clean pieces of a swept solid are built here, as the
+    whole pipe is, so no piece can miss a joint or a cap.
+
+    Returns the vertex index of each pipe's first and last ring laid out (its own, not a
+    cap's).
     """
     groups, sides = tubes.groups, tubes.sides
-    firsts, lasts = groups.first.tolist(), groups.last.tolist()
-    runs = [tubes.axes[a:b + 1] for a, b in zip(firsts, lasts)]
-    # caps: at most the two ends of a chain, or a lone pipe's
-    capped = [g for g, pipe in enumerate(pipes)
-              if (cap_start[g] or cap_end[g]) and not pipe.closed]
+    runs, rolls, rows_of, closed, ends = [], [], [], [], []
+    for g, pipe in enumerate(pipes):
+        first, last = int(groups.first[g]), int(groups.last[g])
+        window = None if windows is None else windows[g]
+        if window is None:
+            rows = np.arange(first, last + 1)
+        else:
+            count = last - first + 1
+            a, b = window
+            rows = first + (a + np.arange((b - a) % (count if pipe.closed else count - 1)
+                                          + 2)) % count
+        axes, roll = _window_axes(tubes, rows, int(tubes.seam_shift[g]), pipe.sides)
+        runs.append(axes)
+        rolls.append(roll)
+        rows_of.append(rows)
+        closed.append(pipe.closed and window is None)
+        ends.append((not pipe.closed and rows[0] == first, not pipe.closed and rows[-1] == last))
+    # caps: at most the two ends of a chain, or a lone pipe's; a cut end is a flat fan
+    capped = [g for g in range(len(pipes)) if (cap_start[g] or cap_end[g]) and not closed[g]]
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
     for g in capped:
-        pipe = pipes[g]
-        styles = pipe.cap_styles
-        start = cap_axes(tubes, firsts[g], -1, pipe, styles[0]) if cap_start[g] else None
-        end = cap_axes(tubes, lasts[g], +1, pipe, styles[1]) if cap_end[g] else None
+        pipe, (at_start, at_end) = pipes[g], ends[g]
+        styles, rows = pipe.cap_styles, rows_of[g]
+        start = cap_axes(tubes, rows[0], -1, pipe, styles[0]) \
+            if cap_start[g] and at_start else None
+        end = cap_axes(tubes, rows[-1], +1, pipe, styles[1]) if cap_end[g] and at_end else None
         if start is not None or end is not None:
             run = runs[g]
             runs[g] = np.concatenate([run[:0] if start is None else start[0][::-1], run,
@@ -857,21 +942,26 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
         caps[g] = (start, end)
     jointed = {}
     for g, pipe in enumerate(pipes):
-        rows = firsts[g] + np.flatnonzero(joint_rows_of(tubes, firsts[g], lasts[g], pipe))
-        if rows.size:
-            jointed[g] = {int(r - firsts[g] + rings_before[g]): int(r) for r in rows}
+        first, rows = int(groups.first[g]), rows_of[g]
+        mask = joint_rows_of(tubes, first, int(groups.last[g]), pipe)[rows - first]
+        if not closed[g]:                          # a cut or an end is a plain ring
+            mask[[0, -1]] = False
+        at = np.flatnonzero(mask)
+        if at.size:
+            jointed[g] = {int(k + rings_before[g]): (int(rows[k]), int(rolls[g][k]))
+                          for k in at.tolist()}
     plain = [g for g in range(len(pipes)) if g not in jointed]
     row_start = [None] * len(pipes)
     if plain:
         starts = surface.add_rings([runs[g] for g in plain], sides[plain],
                                    None if parts is None else np.asarray(parts)[plain],
-                                   closed=groups.closed[plain],
+                                   closed=np.asarray(closed)[plain],
                                    seam_shift=tubes.seam_shift[plain])
         for g, start in zip(plain, starts.tolist()):
             row_start[g] = start + int(sides[g]) * np.arange(len(runs[g]))
     for g, rows in jointed.items():
-        row_start[g] = _add_jointed_run(surface, tubes, pipes[g], runs[g], rows,
-                                        bool(groups.closed[g]), int(tubes.seam_shift[g]),
+        row_start[g] = _add_jointed_run(surface, tubes, pipes[g], runs[g], rows, closed[g],
+                                        int(tubes.seam_shift[g]),
                                         None if parts is None else int(parts[g]))
     for g in capped:
         n, part = int(sides[g]), None if parts is None else int(parts[g])
@@ -884,9 +974,26 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
                 1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
             surface.add_faces(n if apex is not None else n - 2, partial(
                 write_fan, ring, n, apex, at_end), part)
-    own = [rs[b:b + int(c)] for rs, b, c in zip(row_start, rings_before.tolist(),
-                                                 groups.counts.tolist())]
+    own = [rs[b:b + len(r)] for rs, b, r in zip(row_start, rings_before.tolist(), rows_of)]
     return np.array([o[0] for o in own]), np.array([o[-1] for o in own])
+
+
+def _window_axes(tubes, rows, shift, sides):
+    """(K, 3, 3) ring axes at tube ``rows`` of one pipe and (K,) the vertex roll of each:
+    rings past a closed pipe's seam are turned by its seam ``shift`` (their vertex k is
+    the ring's vertex k + shift), so they continue the rings before the seam."""
+    axes = tubes.axes[rows]
+    roll = np.zeros(len(rows), np.int64)
+    past = np.flatnonzero(np.diff(rows) < 0)
+    if past.size:
+        after = slice(int(past[0]) + 1, None)
+        alpha = 2 * np.pi * shift / sides
+        axes = axes.copy()
+        a0, a1 = axes[after, 0].copy(), axes[after, 1].copy()
+        axes[after, 0] = np.cos(alpha) * a0 + np.sin(alpha) * a1
+        axes[after, 1] = np.cos(alpha) * a1 - np.sin(alpha) * a0
+        roll[after] = shift
+    return axes, roll
 
 # -- ball joints (corners="round") -------------------------------------------------
 def joint_rows_of(tubes, first, last, pipe):
@@ -947,7 +1054,8 @@ def _joint(tubes, row, pipe):
 
 def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
     """Lay out a run of rings (axes, as :meth:`Surface.add_rings` takes them) whose
-    ``rows`` (index in ``run`` -> tube row) get ball joints: every ring a row of vertex
+    ``rows`` (index in ``run`` -> tube row and vertex roll, see :func:`_window_axes`) get
+    ball joints: every ring a row of vertex
     indices (a joint's inner vertices shared by its rings), faces between every two
     rows as for plain rings, those made degenerate by a shared vertex dropped.
 
@@ -958,7 +1066,9 @@ def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
     blocks, table, row_start, count = [], [], np.empty(len(run), np.int64), 0
     for r, axes in enumerate(run):
         if r in rows:
-            outer, rings = _joint(tubes, rows[r], pipe)
+            row, roll = rows[r]
+            outer, rings = _joint(tubes, row, pipe)
+            outer, rings = np.roll(outer, -roll), np.roll(rings, -roll, axis=1)
             extra = rings[1:, outer].reshape(-1, 3)
             ids = np.empty((len(rings), n), np.int64)
             ids[:] = first + count + np.arange(n)
