@@ -7,7 +7,7 @@ scale). Every case must end one of two ways:
 
 * a result, which the judges accept: trimesh says watertight, consistently wound
   and of positive volume, manifold3d accepts it as a manifold, and the test-only
-  triangle-triangle oracle (``tests/tri_tri.py``) finds no crossing faces; a
+  triangle-triangle oracle (``tests/oracle.py``) finds no crossing faces; a
   collision answer agrees with manifold3d's intersection volume and FCL's distance;
 * a :class:`cadpipe.CadpipeError`.
 
@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 import cadpipe
 from cadpipe import CadpipeError
-from tri_tri import self_intersections
+from oracle import self_intersections
 
 SEED = 20261201
 HANG_S = 20.0
@@ -94,7 +94,7 @@ class Tally:
 
 
 def judge_mesh(mesh):
-    """What is wrong with ``mesh`` as a solid, by trimesh, manifold3d and tri_tri."""
+    """What is wrong with ``mesh`` as a solid, by trimesh, manifold3d and the oracle."""
     vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
     if not len(faces):
         return ["no triangles"]

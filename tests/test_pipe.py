@@ -256,7 +256,10 @@ def test_radius_below_the_path_resolution_or_too_thin_to_check_is_refused():
     with pytest.raises(InputError, match="radius"):
         Pipe([[0, 0.75, 0], [0, 0, 1]], 5.9e-127, sides=3)
     # representable: a thin pipe costs what its segments cost, at any length / radius
-    assert_solid(Pipe([[0, 0, 0], [1, 0, 0]], 1e-7).mesh())
+    assert_solid(Pipe([[0, 0, 0], [1e-3, 0, 0]], 1e-7).mesh())
+    # but at 1 from the origin float32 files (steps of 1.2e-7 there) would weld it shut
+    with pytest.raises(GeometryError, match="float32"):
+        Pipe([[0, 0, 0], [1, 0, 0]], 1e-7).mesh()
 
 
 def test_fillets_that_consume_a_segment_keep_per_point_radii():

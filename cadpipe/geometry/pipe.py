@@ -155,8 +155,8 @@ class Pipe:
         set_("corners", as_choice(self.corners, "corners", CORNER_STYLES))
         set_("envelope", bool(self.envelope))
         if self.repair is not None:
-            warnings.warn("Pipe(repair=...) is deprecated: overlaps are merged by default; "
-                          "pass strict=True to refuse them", DeprecationWarning, stacklevel=3)
+            _deprecated.warn("Pipe(repair=...)", "the default (overlaps are merged into the "
+                             "swept solid), or strict=True to refuse them", stacklevel=4)
             set_("strict", not self.repair)
             set_("repair", None)
         set_("strict", bool(self.strict))
@@ -680,6 +680,8 @@ def welded_solid(solid, **kwargs):
     oriented 2-manifold, smaller distances are tried, down to one unit in float32's
     last place; failing that the float64 solid is returned as manifold3d made it.
     """
+    from cadpipe.solids.intersect import self_intersections
+
     if solid.is_empty():
         raise GeometryError("the swept solid is empty")
     low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
@@ -689,9 +691,10 @@ def welded_solid(solid, **kwargs):
     simple = Mesh.from_manifold(solid.as_original().simplify(FLOAT32_WELD * size), **kwargs)
     for mesh, ulps in ((simple, 16), (plain, 16), (plain, 4), (plain, 1)):
         welded = _weld(mesh, ulps * 2.0 ** -23 * size, kwargs)
-        # a solid finer than float32 resolves at its distance from the origin would
-        # collapse: keep it as manifold3d made it
-        if welded is not None and abs(welded.volume - volume) <= WELD_VOLUME * volume:
+        # a weld that moved the surface (volume) or folded a sliver through a face is
+        # not taken; failing all, the solid as manifold3d made it
+        if (welded is not None and abs(welded.volume - volume) <= WELD_VOLUME * volume
+                and not len(self_intersections(welded))):
             return welded
     return plain
 
@@ -728,7 +731,7 @@ def _weld(mesh, tol, kwargs):
 #: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
 FLOAT32_WELD = 16 * 2.0 ** -23
 #: features shorter than this many float32 steps at the largest coordinate are refused
-FLOAT32_STEPS = 4
+FLOAT32_STEPS = 1
 #: a weld may change the volume by this fraction at most (else the solid was too fine)
 WELD_VOLUME = 1e-3
 
