@@ -56,6 +56,8 @@ _CODE = {name: i for i, name in enumerate(STAGES)}
 assert (_CODE["aabb"], _CODE["kdop"], _CODE["obb"]) == (funnel.AABB, funnel.KDOP, funnel.OBB)
 #: configurations per pass of the broad phase (bounds the entry arrays' memory)
 CONFIGURATION_CHUNK = 2048
+#: the first chunk of ``check_path(first_hit=True)``, doubled each pass after it
+FIRST_CHUNK = 16
 
 
 def as_pose(transform, name):
@@ -417,6 +419,8 @@ class _Layout:
         self.obb_centre = np.array([b.obb[0] for b in bodies]).reshape(-1, 3)
         self.obb_axes = np.array([b.obb[1] for b in bodies]).reshape(-1, 3, 3)
         self.half = np.array([b.obb[2] for b in bodies]).reshape(-1, 3)
+        #: group (or None for all) -> (P,) mask of the pairs ``check(only=group)`` decides
+        self.chosen = {}
 
     def place(self, ids, poses):
         """Bounds of objects ``ids`` (E,) at ``poses`` (E, 4, 4): world 18-DOPs
@@ -468,9 +472,11 @@ class Checker:
     def check(self, stop_after_self=False, certify=False, first_hit=False, only=None):
         """Decide every pair where the objects stand; a :class:`CollisionReport`.
         See :meth:`CollisionWorld.check`."""
-        table = self.layout.table
-        chosen = ~table.allowed if only is None else ~table.allowed & self._involving(only)
-        return self._standing(chosen, stop_after_self, certify, first_hit)
+        layout = self.layout
+        if only not in layout.chosen:                # decided once per layout
+            layout.chosen[only] = ~layout.table.allowed if only is None else \
+                ~layout.table.allowed & self._involving(only)
+        return self._standing(layout.chosen[only], stop_after_self, certify, first_hit)
 
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
@@ -519,13 +525,16 @@ class Checker:
         member = groups == group
         return member[table.first] | member[table.second]
 
-    def check_moving(self, ids, poses, stop_after_self=False, certify=False):
+    def check_moving(self, ids, poses, stop_after_self=False, certify=False, first_hit=False):
         """Every pair in each of C configurations: objects ``ids`` (m,) at ``poses``
         (C, m, 4, 4), all others where they stand; a :class:`CollisionReports`.
 
         Pairs of standing objects are decided once, as :meth:`check` decides
         them; pairs with a moving object go through the funnel for all
         configurations together, in chunks that keep the entry arrays small.
+        With ``first_hit`` the chunks start small and grow, and the check stops
+        after the chunk holding the first colliding configuration: every
+        configuration after that one is left ``"not checked"``.
         """
         layout, n = self.layout, len(self.scene._names)
         table = layout.table
@@ -543,11 +552,20 @@ class Checker:
             # configuration -1: a certificate that holds in every configuration
             certificates.update({(-1, k): cert for k, cert in still.certificates.items()})
         pairs = np.flatnonzero(~standing_pairs & ~table.allowed)
-        for start in range(0, count, CONFIGURATION_CHUNK):
-            part = slice(start, start + CONFIGURATION_CHUNK)
+        start, size = 0, FIRST_CHUNK if first_hit else CONFIGURATION_CHUNK
+        while start < count:
+            part = slice(start, start + size)
             found = self._moving_pairs(ids, poses[part], pairs, codes[part], colliding[part],
                                        certify)
             certificates.update({(c + start, k): cert for (c, k), cert in found.items()})
+            start, size = start + size, min(2 * size, CONFIGURATION_CHUNK)
+            hit = np.flatnonzero(colliding[:start].any(axis=1)) if first_hit else ()
+            if len(hit):
+                after = slice(hit[0] + 1, None)
+                codes[after, ~table.allowed] = _CODE["not checked"]
+                colliding[after] = False
+                certificates = {key: c for key, c in certificates.items() if key[0] <= hit[0]}
+                break
         stopped = np.zeros(count, bool)
         if stop_after_self:
             stopped = colliding[:, table.same].any(axis=1)
@@ -751,20 +769,42 @@ class CollisionWorld(Scene):
         :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
         return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False,
-                   between=False, tolerance=None):
+    def check_path(self, group: str, configurations, stop_after_self: bool = False,
+                   certify: bool = False, between: bool = False, tolerance: float | None = None,
+                   first_hit: bool = False):
         """:meth:`check` at each of many joint configurations of the robot ``group``,
-        in one vectorized pass; returns :class:`CollisionReports`.
+        in one vectorized pass.
 
-        ``configurations`` is a ``(C, A)`` array over ``robot.actuated`` (a
-        trajectory's waypoints, say). Each configuration is checked where it
-        stands -- the motion between them is not swept -- and its report is
-        the one :meth:`set_joints` then :meth:`check` would give. The robot
-        stays where :meth:`set_joints` last put it.
+        Parameters
+        ----------
+        group : str
+            The robot's group (see :meth:`add_robot`).
+        configurations : (C, A) array
+            Joint values over ``robot.actuated`` (radians, metres): a
+            trajectory's waypoints, say.
+        stop_after_self, certify : bool
+            As for :meth:`check`, per configuration.
+        between : bool
+            Certify the motion between consecutive configurations instead
+            (conservative advancement, stopping at the first contact; see
+            :mod:`cadpipe.collision.motion`).
+        tolerance : float, optional
+            With ``between``: the clearance (world units) counted as contact,
+            :data:`cadpipe.collision.motion.TOLERANCE` by default.
+        first_hit : bool
+            Stop at the first colliding configuration: every pair of the
+            configurations after it is ``"not checked"`` (and not colliding),
+            so ``reports.colliding.argmax()`` is the first hit when
+            ``reports.colliding.any()``. A motion check (``between``) always
+            stops at its first contact.
 
-        With ``between=True`` the motion between consecutive configurations is
-        certified instead (conservative advancement, stopping at the first
-        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
+        Returns
+        -------
+        CollisionReports
+            One report per configuration, each the one :meth:`set_joints` then
+            :meth:`check` would give (the motion between them is not swept);
+            with ``between=True`` a :class:`~cadpipe.collision.motion.MotionCheck`.
+            The robot stays where :meth:`set_joints` last put it.
         """
         if between:
             from cadpipe.collision import motion
@@ -773,7 +813,7 @@ class CollisionWorld(Scene):
                                        motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
-        return self.checker.check_moving(ids, poses, stop_after_self, certify)
+        return self.checker.check_moving(ids, poses, stop_after_self, certify, first_hit)
 
     def check_many(self, poses, stop_after_self=False, certify=False):
         """:meth:`check` with objects placed at each of C poses, in one vectorized pass.
