@@ -669,39 +669,58 @@ TONGUE = 1e-3
 
 
 def welded_solid(solid, **kwargs):
-    """The :class:`Mesh` of a manifold3d ``solid`` simplified (manifold3d's own edge
-    collapses) to what float32 can tell apart at its size (:data:`FLOAT32_WELD` of
-    its largest coordinate), then every cluster of vertices still closer than that
-    (where sheets touch) merged into one and the faces that collapse dropped.
+    """The :class:`Mesh` of a manifold3d ``solid``, with no two vertices closer than
+    float32 can tell apart at its size.
 
-    A union leaves such clusters where its pieces meet at grazing angles; STL, 3MF,
-    OBJ and PLY files (float32) would merge them anyway, into edges shared by more
-    than two faces. Where merging at that distance would not leave a closed,
-    oriented 2-manifold, smaller distances are tried, down to one unit in float32's
-    last place; failing that the float64 solid is returned as manifold3d made it.
+    A union leaves clusters of vertices where its pieces meet at grazing angles; STL,
+    3MF, OBJ and PLY files (float32) would merge them, into edges shared by more than
+    two faces. A solid with vertices closer than :data:`FLOAT32_CLOSE` units in the
+    last place of its largest coordinate is simplified by manifold3d's own edge
+    collapses (:data:`FLOAT32_WELD`) and its clusters merged; a weld that changes the
+    volume, leaves an open or badly wound surface, or folds a sliver through a face is
+    not taken, and smaller distances are tried, down to :data:`FLOAT32_CLOSE` units;
+    failing all, the float64 solid as manifold3d made it.
     """
-    from cadpipe.solids.intersect import self_intersections
+    from scipy.spatial import cKDTree
 
     if solid.is_empty():
         raise GeometryError("the swept solid is empty")
     low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
-    size = max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    ulp = 2.0 ** -23 * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
     volume = solid.volume()
     plain = Mesh.from_manifold(solid, **kwargs)
-    simple = Mesh.from_manifold(solid.as_original().simplify(FLOAT32_WELD * size), **kwargs)
-    for mesh, ulps in ((simple, 16), (plain, 16), (plain, 4), (plain, 1)):
-        welded = _weld(mesh, ulps * 2.0 ** -23 * size, kwargs)
-        # a weld that moved the surface (volume) or folded a sliver through a face is
-        # not taken; failing all, the solid as manifold3d made it
-        if (welded is not None and abs(welded.volume - volume) <= WELD_VOLUME * volume
-                and not len(self_intersections(welded))):
-            return welded
+    if not len(cKDTree(plain.vertices).query_pairs(FLOAT32_CLOSE * ulp,
+                                                   output_type="ndarray")):
+        return plain                                 # nothing a float32 file would merge
+    for ulps in (FLOAT32_WELD, 4, FLOAT32_CLOSE):
+        welded = _weld(plain, ulps * ulp, kwargs)
+        if welded is not None and abs(welded[0].volume - volume) <= WELD_VOLUME * volume \
+                and not _crossings_near(*welded, ulps * ulp):
+            return welded[0]
     return plain
 
 
+def _crossings_near(mesh, moved, shift):
+    """Whether a face of ``mesh`` that the weld ``moved`` ((F,) bool, each point by at
+    most ``shift``) cuts through another face. The rest is manifold3d's surface as it
+    made it, which does not, so only faces whose boxes come within ``shift`` of a moved
+    face's box are tested."""
+    from cadpipe.solids.intersect import self_intersections
+
+    if not moved.any():
+        return False
+    tri = mesh.triangles
+    low, high = tri.min(axis=1), tri.max(axis=1)
+    near = moved.copy()
+    for rows in np.array_split(np.flatnonzero(moved), max(1, int(moved.sum()) // 256)):
+        near |= ((low[None] <= high[rows, None] + shift)
+                 & (high[None] >= low[rows, None] - shift)).all(axis=2).any(axis=0)
+    return bool(len(self_intersections(Mesh.trusted(mesh.vertices, mesh.faces[near]))))
+
+
 def _weld(mesh, tol, kwargs):
-    """``mesh`` with its vertex clusters closer than ``tol`` merged, or None if that
-    does not leave a closed, oriented surface."""
+    """``mesh`` with its vertex clusters closer than ``tol`` merged and (F,) which of its
+    faces moved, or None if that does not leave a closed, oriented surface."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -709,7 +728,7 @@ def _weld(mesh, tol, kwargs):
     vertices, faces = mesh.vertices, mesh.faces
     pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
     if not len(pairs):
-        return mesh if len(faces) and mesh.is_oriented else None
+        return (mesh, np.zeros(len(faces), bool)) if len(faces) and mesh.is_oriented else None
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
                        shape=(len(vertices), len(vertices)))
     count, label = connected_components(graph, directed=False)
@@ -722,14 +741,18 @@ def _weld(mesh, tol, kwargs):
     # sheets that touched along faces: such a face now comes twice, facing both ways
     _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
                                  return_counts=True)
-    faces = faces[counts[index.reshape(-1)] == 1]
+    single = counts[index.reshape(-1)] == 1
+    faces = faces[single]
+    moved = (np.bincount(label, minlength=count) > 1)[faces].any(axis=1)
     used, faces = np.unique(faces, return_inverse=True)
     welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
-    return welded if len(faces) and welded.is_oriented else None
+    return (welded, moved) if len(faces) and welded.is_oriented else None
 
 
-#: weld distance over the largest coordinate: 16 units in float32's last place (2**-23)
-FLOAT32_WELD = 16 * 2.0 ** -23
+#: weld distance, in units in float32's last place (2**-23) of the largest coordinate
+FLOAT32_WELD = 16
+#: vertices closer than this (units in the last place) may round to one float32 point
+FLOAT32_CLOSE = 2
 #: features shorter than this many float32 steps at the largest coordinate are refused
 FLOAT32_STEPS = 1
 #: a weld may change the volume by this fraction at most (else the solid was too fine)
@@ -752,8 +775,10 @@ def _runs(mask, closed):
 def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
     """Point sets whose convex hulls together make the tube along ``segments``.
 
-    Each segment's unit is its two end rings; at a corner in ``joints`` (beyond the
-    miter limit) the rings there are cut square to the segment instead and a ball
+    Each segment's unit is its two end rings (a run of nearly straight segments one
+    hull of their rings, see :func:`_hull_groups`); at a corner in ``joints`` (beyond
+    the miter limit, or a ball joint) the rings there are cut square to the segment
+    instead and a ball
     (:func:`_ball`) holds the corner. Round caps of an open pipe join the units of
     its end segments. Where another segment continues a unit, its ring there is
     pushed ``overlap`` along the unit's own segment, and a ``tongue`` (a fraction of
@@ -794,17 +819,18 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
         return centres[p] + offsets
 
     pieces = []
-    for k in np.asarray(segments).tolist():
-        d = directions[k]
+    for first, last in _hull_groups(pipe, segments, at_joint):
         ends = []
-        for p, sign, other in ((k, -1.0, k - 1), ((k + 1) % n, 1.0, k + 1)):
+        for k, p, sign, other in ((first, first, -1.0, first - 1),
+                                  (last, (last + 1) % n, 1.0, last + 1)):
             ring = rings[p]
             inner = pipe.closed or 0 <= other < count
             if at_joint[p]:
                 ring = square(k, p)
             elif inner and tongue:
                 ends.append(into(p, other % count, sign))
-            ends.append(ring + (sign * overlap * inner) * d)
+            ends.append(ring + (sign * overlap * inner) * directions[k])
+        ends.insert(len(ends) // 2, rings[first + 1:last + 1].reshape(-1, 3))
         pieces.append(np.concatenate(ends))
     for k in joints.tolist():
         pieces.append(_ball(centres[k], float(radii[k])))
@@ -820,6 +846,29 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
                 tip = np.empty((0, 3)) if pole is None else pole[None]
                 pieces.append(np.concatenate([rings[row], inside, cap, tip]))
     return pieces
+
+
+def _hull_groups(pipe, segments, at_joint):
+    """``[(first, last)]``: the sorted ``segments`` in runs whose units one convex hull
+    may replace, because the path between them strays from its chord by at most half
+    the ring polygon's own chordal deviation (the hull fills the inside of a bend by
+    about that much). A joint ends a run. With a radius far larger than the bends, a
+    whole stretch is one hull instead of hundreds of nearly equal ones."""
+    points, radii = pipe.path.points, pipe.ring_radii
+    slack = 0.5 * (1 - np.cos(np.pi / pipe.sides))
+    groups = []
+    for k in np.asarray(segments).tolist():
+        if groups and groups[-1][1] == k - 1 and not at_joint[k] and k + 1 < len(points):
+            first = groups[-1][0]
+            chord = points[k + 1] - points[first]
+            inner = points[first + 1:k + 1] - points[first]
+            along = np.clip(inner @ chord / max(float(chord @ chord), 1e-300), 0, 1)
+            stray = np.linalg.norm(inner - along[:, None] * chord, axis=1).max()
+            if stray <= slack * float(radii[first:k + 2].min()):
+                groups[-1] = (first, k)
+                continue
+        groups.append((k, k))
+    return groups
 
 
 def _ball(centre, radius):
