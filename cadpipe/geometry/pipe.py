@@ -482,15 +482,14 @@ class Pipe:
 
     def _require_float32(self):
         """Refuse a tube finer than float32 coordinates resolve at its distance from the
-        origin: STL, 3MF, OBJ, PLY and GLB files would weld its rings shut."""
+        origin: STL, 3MF, OBJ, PLY and GLB files would weld its rings shut (rings closer
+        than that along the path merge into one, which leaves a valid surface)."""
         edge = 2 * float(self.ring_radii.min()) * np.sin(np.pi / self.sides)
-        feature = min(edge, float(self.path.segment_lengths.min()))
         largest = float(np.abs(self.path.points).max()) + float(self.ring_radii.max())
         step = FLOAT32_STEPS * float(np.finfo(np.float32).eps) * largest
-        if feature < step:
-            what = "ring edges" if edge <= feature else "segments"
+        if edge < step:
             raise GeometryError(
-                f"the tube's {what} ({feature:.3g} long) are finer than float32 files can "
+                f"the tube's ring edges ({edge:.3g} long) are finer than float32 files can "
                 f"hold {largest:.3g} from the origin (steps of {step:.3g} there); move the "
                 "path nearer the origin or use a larger radius", key="radius")
 
