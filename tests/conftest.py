@@ -3,7 +3,7 @@
 import sys
 from pathlib import Path
 
-# test-only helpers (tests/tri_tri.py) import by name
+# test-only helpers (tests/oracle.py) import by name
 sys.path.insert(0, str(Path(__file__).parent))
 
 

@@ -40,11 +40,13 @@ class Case:
     files: dict = field(default_factory=dict)   # name -> text, bytes or FOLDER
 
 
-def pipe_case(id, error, message, path=LINE, radius=0.1, sides=16):
+def pipe_case(id, error, message, path=LINE, radius=0.1, sides=16, **options):
     """``Pipe(path, radius, sides).mesh()`` in Python, the same pipe in a spec for the CLI."""
-    spec = {"parts": [{"kind": "pipe", "path": path, "radius": radius, "sides": sides}]}
+    spec = {"parts": [{"kind": "pipe", "path": path, "radius": radius, "sides": sides,
+                       **options}]}
     # json writes a NaN that Python's reader takes back, as TOML's nan
-    return Case(id, error, message, lambda folder: Pipe(path, radius, sides=sides).mesh(),
+    return Case(id, error, message,
+                lambda folder: Pipe(path, radius, sides=sides, **options).mesh(),
                 ("build", "{}/pipe.json", "-o", "{}/" + OUT), {"pipe.json": json.dumps(spec)})
 
 
@@ -88,7 +90,7 @@ CASES = [
     pipe_case("sides-huge", InputError, "sides: must be between 3 and 4096, got 1000000000",
               sides=10 ** 9),
     pipe_case("self-intersecting-bend", cadpipe.GeometryError, "the pipe intersects itself",
-              path=[[0, 0, 0], [1, 0, 0], [1, 0.05, 0], [0, 0.05, 0]]),
+              path=[[0, 0, 0], [1, 0, 0], [1, 0.05, 0], [0, 0.05, 0]], strict=True),
     pipe_case("radius-wrong-type", InputError, "radius: expected", radius="thick"),
     pipe_case("sides-wrong-type", InputError, "sides: expected a whole number, got 12.5",
               sides=12.5),

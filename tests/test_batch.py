@@ -7,7 +7,8 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import Path, Pipe, splice
-from cadpipe.geometry.clearance import _samples, distant_pairs
+from cadpipe.geometry.clearance import (RIGHT_ANGLE, _units_meet, distant_pairs, reach,
+                                       segment_distance)
 from cadpipe.geometry.loft import Surface
 from cadpipe.geometry.pipe import tubes_of
 from cadpipe.geometry.ragged import Groups
@@ -104,32 +105,36 @@ def test_spliced_pipes_keep_their_own_surfaces(transition):
 
 
 def brute_force_pairs(tubes):
-    """Every close, locally nearest pair of samples, from the full distance matrix."""
-    lines = tubes.lines
-    rho = tubes.ring_radii
-    step = 0.25 * np.minimum.reduceat(rho, lines.groups.first)
-    samples, points, s, radii = _samples(tubes, step)
+    """Every pair of non-adjacent segments whose capsules meet, whose joining
+    stretches both turn by a right angle or more and whose units overlap, from
+    full matrices."""
+    lines, groups = tubes.lines, tubes.groups
+    r = reach(tubes)
     found = set()
-    for g in range(len(samples)):
-        lo, n, loop = samples.first[g], samples.counts[g], samples.closed[g]
-        p, r, a = points[:, lo:lo + n].T, radii[lo:lo + n], s[lo:lo + n]
-        d = np.linalg.norm(p[:, None] - p[None], axis=2)
-        gap = np.abs(a[:, None] - a[None])
+    for g in range(len(groups)):
+        lo, n, loop = groups.first[g], groups.counts[g], groups.closed[g]
+        m = n if loop else n - 1                                  # segments
+        rad = np.maximum(r[lo:lo + n], np.roll(r[lo:lo + n], -1))[:m]
+        turn = np.cumsum(lines.turning_angles[lo:lo + n])
+        i, j = np.triu_indices(m, 2)
+        forward = turn[j] - turn[i]
+        bent = forward >= RIGHT_ANGLE
         if loop:
-            gap = np.minimum(gap, lines.lengths[g] - gap)
-        ok = np.triu(np.ones((n, n), bool), 1) & (gap > 2 * step[g]) & (d < r[:, None] + r)
-        # each neighbour on the grid (i +- 1, j), (i, j +- 1): beyond an open end, none
-        padded = np.pad(d, 1, mode="wrap") if loop else np.pad(d, 1, constant_values=np.inf)
-        for di, dj in ((1, 0), (-1, 0), (0, -1), (0, 1)):
-            ok &= padded[1 + di:n + 1 + di, 1 + dj:n + 1 + dj] >= d
-        found |= {(lo + i, lo + j) for i, j in zip(*np.nonzero(ok))}
+            bent &= (turn[-1] - forward >= RIGHT_ANGLE) & ~((i == 0) & (j == m - 1))
+        i, j = i[bent] + lo, j[bent] + lo
+        d = segment_distance(lines.xyz[:, i], lines.segments[:, i], lines.xyz[:, j],
+                             lines.segments[:, j])
+        close = d < rad[i - lo] + rad[j - lo]
+        i, j = i[close], j[close]
+        meet = _units_meet(tubes, i, j)
+        found |= set(zip(i[meet].tolist(), j[meet].tolist()))
     return found
 
 
 @settings(max_examples=15, deadline=None)
 @given(st.floats(0.05, 0.6), st.floats(0.03, 0.15), st.integers(2, 4), st.booleans())
 def test_distant_pairs_are_exactly_the_brute_force_ones(pitch, radius, turns, closed):
-    """The band of near samples plus the KD-tree over chunks miss no pair and invent none."""
+    """The capsule tree's pruning misses no pair and invents none."""
     t = np.linspace(0, turns * np.pi, 25 * turns)
     coil = np.c_[np.cos(t), np.sin(t), pitch * t / np.pi]
     crossing = [[0, 0, 0], [2, 0, 0], [2, 2, 0], [1, 2, 0], [1, -1, 0.1]]
@@ -138,7 +143,7 @@ def test_distant_pairs_are_exactly_the_brute_force_ones(pitch, radius, turns, cl
              Path(hairpin, closed=closed)]
     tubes = tubes_of([Pipe(p, radius * np.linspace(1, 1.6, len(p)), miter_limit=1e6)
                       for p in paths])
-    _, _, _, i, j, _ = distant_pairs(tubes)
+    i, j, _, _ = distant_pairs(tubes)
     assert set(zip(i.tolist(), j.tolist())) == brute_force_pairs(tubes)
 
 

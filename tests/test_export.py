@@ -341,9 +341,9 @@ def test_binary_stl_holds_the_float32_triangles_and_their_normals(tmp_path_facto
     path = np.asarray(points)
     assume(np.linalg.norm(np.diff(path, axis=0), axis=1).min() >= 1.0)
     try:
-        mesh = cadpipe.Pipe(path, radius, sides=sides).mesh()
+        mesh = cadpipe.Pipe(path, radius, sides=sides, strict=True).mesh()
     except (cadpipe.GeometryError, InputError):
-        assume(False)                                       # folds on itself: not exportable
+        assume(False)                    # folds on itself: a union's slivers tilt in float32
     target = tmp_path_factory.mktemp("stl") / "pipe.stl"
     write_stl(mesh, target, units="m")
     data = np.fromfile(target, dtype=np.uint8)

@@ -7,7 +7,7 @@ scale). Every case must end one of two ways:
 
 * a result, which the judges accept: trimesh says watertight, consistently wound
   and of positive volume, manifold3d accepts it as a manifold, and the test-only
-  triangle-triangle oracle (``tests/tri_tri.py``) finds no crossing faces; a
+  triangle-triangle oracle (``tests/oracle.py``) finds no crossing faces; a
   collision answer agrees with manifold3d's intersection volume and FCL's distance;
 * a :class:`cadpipe.CadpipeError`.
 
@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 import cadpipe
 from cadpipe import CadpipeError
-from tri_tri import self_intersections
+from oracle import self_intersections
 
 SEED = 20261201
 HANG_S = 20.0
@@ -51,7 +51,7 @@ HOSTILE_NUMBERS = [0.0, -1.0, math.nan, math.inf, -math.inf, 1e308, -1e308, 1e-3
 #: self-intersection check does not see that growth, so an end cap can cut another
 #: stretch of a jagged path. Listed so every other wrong result still fails the test, and
 #: these fail it once they are fixed.
-KNOWN_WRONG = {"pipes 436", "pipes 2027"}
+KNOWN_WRONG = set()
 
 
 class Tally:
@@ -94,7 +94,7 @@ class Tally:
 
 
 def judge_mesh(mesh):
-    """What is wrong with ``mesh`` as a solid, by trimesh, manifold3d and tri_tri."""
+    """What is wrong with ``mesh`` as a solid, by trimesh, manifold3d and the oracle."""
     vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
     if not len(faces):
         return ["no triangles"]

@@ -1,52 +1,132 @@
 """Where a tube would cut through itself.
 
-Three ways a swept tube folds: a corner sharper than the miter limit, rings that
-overlap within one segment (the radius exceeds the local bend radius), and two
-parts of the tube that are far apart along the path but closer in space than the
-sum of their radii. All three run over a whole batch of tubes at once
-(:class:`~cadpipe.geometry.rings.Tubes`): one pass over all points, one KD-tree over
-chunks of all tubes' samples.
+Three ways a swept tube folds, checked cheapest first: a corner sharper than the
+miter limit, rings that overlap within one segment (the radius exceeds the local
+bend radius), and two stretches of the tube that are apart along the path but
+closer in space than the tube reaches there (miter tips included). All three run
+over a whole batch of tubes at once (:class:`~cadpipe.geometry.rings.Tubes`).
+
+The distant search works on the path's segments themselves, not on samples, so a
+long straight stretch costs as little as a short one. A binary tree of capsules
+(each node: the chord of its run of segments, widened to hold them all) is walked
+pairwise, level by level. A node pair is dropped when its capsules are apart, or
+when the stretch of path joining them turns by less than a right angle: along such
+a stretch the distance between two points grows with their separation, so the
+tube cannot come back to itself there (what overlaps within it is the local
+check's business). What is left are segment pairs whose capsules meet; a fold is
+such a pair whose convex units overlap (no separating plane among their faces and
+the line between their centres). Cost: ``O(N log N)`` in segments and memory linear
+in them, whatever the radii; straight stretches are single segments however long.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 
-from cadpipe._vec import norm
-from cadpipe.errors import InputError
-from cadpipe.geometry.ragged import Groups
+from cadpipe._vec import dot, norm
 
-#: findings reported per tube and kind of fold
+#: findings described per tube and kind of fold
 MAX_FINDINGS = 10
-#: path samples a batch may need (each a quarter of its tube's smallest radius apart)
-MAX_SAMPLES = 10_000_000
+#: stretches joined by less turning than this cannot meet (the distance grows along them)
+RIGHT_ANGLE = 0.5 * np.pi - 1e-9
+#: a corner beyond its miter limit becomes a ball joint: a latitude-longitude polyhedron
+#: of this many sides around, its vertices this far out (in ring radii) so that every face
+#: lies beyond the ball, with a margin (the units' square ends must not touch its faces)
+BALL_SIDES = 16
+BALL_REACH = 1.001 / (np.cos(np.pi / BALL_SIDES) * np.cos(np.pi / BALL_SIDES))
 
 
-def tube_self_intersections(tubes):
-    """Per tube, findings (strings naming path points and arc lengths); empty if none.
+@dataclass(frozen=True)
+class Folds:
+    """Where one tube of a batch would cut through itself.
 
-    A tube's findings all come from the first check that finds anything for it:
-    miter limits, then local overlaps, then distant ones; at most
-    :data:`MAX_FINDINGS` each.
+    Attributes
+    ----------
+    messages : tuple of str
+        The first findings (at most :data:`MAX_FINDINGS` per kind), naming path
+        points, arc lengths and what to change.
+    segments : (K,) int array
+        Sorted local indices of the segments whose units must be merged (a solid
+        union) for the tube to be valid; empty when it is clean.
+    joints : (J,) int array
+        Local indices of the corners beyond the miter limit (built as ball joints).
     """
-    findings = [[] for _ in range(len(tubes.groups))]
+
+    messages: tuple
+    segments: np.ndarray
+    joints: np.ndarray
+
+    def __bool__(self):
+        return bool(self.messages)
+
+
+def tube_folds(tubes, *, first_only=False):
+    """Per tube of the batch, its :class:`Folds`.
+
+    With ``first_only`` the checks stop after the first kind that finds anything in
+    any tube (the answer to "is every tube clean?"), so later kinds may be missing.
+    """
+    count = len(tubes.groups)
+    messages = [[] for _ in range(count)]
+    merged = [[] for _ in range(count)]
+    joints = [np.empty(0, np.int64)] * count
     for check in (_miter_limit, _local_overlaps, _distant_overlaps):
-        tube, describe = check(tubes)         # hits in path order, so tube is sorted
-        rank = np.arange(len(tube)) - np.searchsorted(tube, tube)
-        fresh = np.array([not f for f in findings], bool)[tube]
-        for hit in np.flatnonzero(fresh & (rank < MAX_FINDINGS)).tolist():
-            findings[tube[hit]].append(describe(hit))
-    return findings
+        tube, describe, segments = check(tubes)
+        if tube.size == 0:
+            continue
+        rank = np.arange(len(tube)) - np.searchsorted(tube, tube)   # hits in tube order
+        for hit in np.flatnonzero(rank < MAX_FINDINGS).tolist():
+            messages[tube[hit]].append(describe(hit))
+        if check is _miter_limit:
+            local = tube_local(tubes.groups, segments.pop("joints"))
+            for g in np.unique(tube).tolist():
+                joints[g] = local[tube == g]
+        for g, rows in segments.items():
+            merged[g].append(rows)
+        if first_only:
+            break
+    return [Folds(tuple(m), np.unique(np.concatenate(s)) if s else np.empty(0, np.int64), j)
+            for m, s, j in zip(messages, merged, joints)]
+
+
+def tube_local(groups, rows):
+    """Local (within their tube) indices of global ``rows``."""
+    return rows - groups.first[groups.index[rows]]
 
 
 def _where(lines, row):
-    local = row - lines.groups.first[lines.groups.index[row]]
+    local = tube_local(lines.groups, row)
     return f"path point {local} at arc length {lines.arc_length[row]:.6g}"
+
+
+def _segments_around(groups, rows, before, after):
+    """{tube: local segment indices} of the segments ``before..after`` around each
+    global row (clipped to open tubes' segments, wrapped around closed ones)."""
+    out = {}
+    if rows.size == 0:
+        return out
+    tube = groups.index[rows]
+    local = tube_local(groups, rows)
+    counts, closed = groups.counts[tube], groups.closed[tube]
+    segs = np.where(closed, counts, counts - 1)
+    k = local[:, None] + np.arange(-before, after + 1)
+    valid = closed[:, None] | ((k >= 0) & (k < segs[:, None]))
+    k = k % np.maximum(segs, 1)[:, None]
+    t = np.broadcast_to(tube[:, None], k.shape)
+    for g in np.unique(tube).tolist():
+        out[g] = np.unique(k[valid & (t == g)])
+    return out
+
+
+def _miter_limit_points(tubes):
+    return np.flatnonzero(tubes.miter_stretch > tubes.miter_limit[tubes.lines.groups.index])
 
 
 def _miter_limit(tubes):
     lines = tubes.lines
     stretch = tubes.miter_stretch
     limit = tubes.miter_limit[lines.groups.index]
-    bad = np.flatnonzero(stretch > limit)
+    bad = _miter_limit_points(tubes)
 
     def describe(hit):
         i = bad[hit]
@@ -54,7 +134,8 @@ def _miter_limit(tubes):
                 f"corner needs a miter stretch of {stretch[i]:.3g} > miter_limit={limit[i]:g} "
                 "(use corners='round' or a larger miter_limit)")
 
-    return lines.groups.index[bad], describe
+    return lines.groups.index[bad], describe, {**_segments_around(lines.groups, bad, 1, 0),
+                                               "joints": bad}
 
 
 def _local_overlaps(tubes):
@@ -74,211 +155,332 @@ def _local_overlaps(tubes):
         lean = lines.tangents * lines.miter_stretch
         spread = norm(groups.following(lean) - lean, 0)
     rho = tubes.ring_radii
-    is_segment = np.ones(len(rho), bool)
-    is_segment[groups.last] = groups.closed
-    bad = np.flatnonzero(is_segment & (np.maximum(rho, groups.following(rho)) * spread
-                                       >= lines.segment_lengths * (1 - 1e-9)))
+    widest = np.maximum(rho, groups.following(rho))
+    is_segment = _is_segment(groups)
+    bad = np.flatnonzero(is_segment & (widest * spread >= lines.segment_lengths * (1 - 1e-9)))
 
     def describe(hit):
         i = bad[hit]
-        return (f"{_where(lines, i)}: radius {rho[i]:.6g} exceeds the local bend radius "
+        return (f"{_where(lines, i)}: radius {widest[i]:.6g} exceeds the local bend radius "
                 f"(about {lines.segment_lengths[i] / spread[i]:.6g})")
 
-    return groups.index[bad], describe
+    return groups.index[bad], describe, _segments_around(groups, bad, 1, 1)
 
 
-def _samples(tubes, step):
-    """Points and radii every ``step`` (per tube) along each tube's path.
+def _is_segment(groups):
+    """(N,) True at columns that start a real segment (not an open tube's last point)."""
+    out = np.ones(groups.size, bool)
+    out[groups.last] = groups.closed
+    return out
 
-    Returns the sample groups, their (3, S) positions, arc lengths and radii.
+
+def reach(tubes):
+    """(N,) how far each point's ring reaches from the path: its radius times the
+    miter stretch, or (beyond the miter limit, a ball joint) the widened radius."""
+    stretch = tubes.miter_stretch
+    over = stretch > tubes.miter_limit[tubes.lines.groups.index]
+    return tubes.ring_radii * np.where(over, BALL_REACH, np.maximum(stretch, 1.0))
+
+
+def segment_distance(p, u, q, v):
+    """Closest distance between segments ``p + s u`` and ``q + t v`` (s, t in [0, 1];
+    a segment may be a point).
+
+    Parameters
+    ----------
+    p, u, q, v : (3, P) float
+        Segment starts and vectors, component-first.
+
+    Returns
+    -------
+    (P,) float
     """
-    lines = tubes.lines
-    groups = lines.groups
-    closed = groups.closed
-    length = lines.lengths
-    count = np.maximum(np.ceil(length / step), 2)
-    if count.sum() > MAX_SAMPLES:
-        g = int(np.argmax(count))
-        raise InputError(f"{4 * step[g]:g} is too small for a path {length[g]:.6g} long: "
-                         f"checking the tube for self-intersection would take {count[g]:.3g} "
-                         "samples; use a larger radius or a shorter path", key="radius")
-    count = count.astype(np.int64)
-    samples = Groups(count, closed)
-    k = samples.local()
-    s = k * samples.spread(length / np.where(closed, count, count - 1))
-    s[samples.last[~closed]] = length[~closed]                 # as np.linspace does
-    # the segment each sample lies on: sort samples among path points, tube by tube
-    offset = np.concatenate([[0.0], np.cumsum(length + 1.0)])[:-1]
-    row = np.searchsorted(lines.arc_length + groups.spread(offset), s + samples.spread(offset),
-                          side="right") - 1
-    last_segment = np.where(closed, groups.last, groups.last - 1)
-    row = np.clip(row, samples.spread(groups.first), samples.spread(last_segment))
-    frac = (s - lines.arc_length[row]) / lines.segment_lengths[row]
-    points = lines.xyz[:, row] + frac * lines.segments[:, row]
-    rho = tubes.ring_radii
-    radii = rho[row] + frac * (groups.following(rho)[row] - rho[row])
-    return samples, points, s, radii
+    w = p - q
+    a, b, c = dot(u, u, 0), dot(u, v, 0), dot(v, v, 0)
+    d, e = dot(u, w, 0), dot(v, w, 0)
+    den = a * c - b * b
+    zero = np.zeros_like(a)
+    s = np.divide(b * e - c * d, den, out=zero.copy(), where=den > 1e-12 * a * c).clip(0.0, 1.0)
+    t = np.divide(b * s + e, c, out=zero.copy(), where=c > 0).clip(0.0, 1.0)
+    s = np.divide(b * t - d, a, out=zero.copy(), where=a > 0).clip(0.0, 1.0)
+    return norm(w + s * u - t * v, 0)
 
 
-def _distant_overlaps(tubes):
-    """Pairs of path samples closer than their radii where the distance along the
-    path has a local minimum (a chord across the tube, not along it); see
-    :func:`distant_pairs`."""
-    lines = tubes.lines
-    groups = lines.groups
-    samples, s, radii, i, j, dist = distant_pairs(tubes)
-    tube = samples.index[i]
+def _point_segment_distance(x, p, u):
+    """(P,) distance from points ``x`` to segments ``p + s u``, all (3, P)."""
+    w = x - p
+    uu = dot(u, u, 0)
+    s = np.divide(dot(w, u, 0), uu, out=np.zeros_like(uu), where=uu > 0)
+    np.clip(s, 0.0, 1.0, out=s)
+    w -= s * u
+    return norm(w, 0)
 
-    def point_at(sample):
-        """The path point starting the segment a sample lies on."""
-        g = samples.index[sample]
-        first, last = groups.first[g], groups.last[g]
-        return first + int(np.searchsorted(lines.arc_length[first:last + 1], s[sample],
-                                           side="right")) - 1
 
-    def describe(hit):
-        a, b = i[hit], j[hit]
-        return (f"{_where(lines, point_at(a))} and {_where(lines, point_at(b))}: the tube "
-                f"passes within {dist[hit]:.6g} of itself, less than its radii "
-                f"{radii[a]:.6g} + {radii[b]:.6g}")
+class _CapsuleTree:
+    """Capsules over runs of consecutive segments of a batch, level by level.
 
-    return tube, describe
+    Level 0 holds one capsule per column (its segment, radius its reach; an open
+    tube's last column repeats its last segment, ``real`` is False there). Level 1
+    holds runs of :data:`RUN` columns, each bounded by the ball about its chord's
+    middle that holds every point of its columns (cheap: one distance per point);
+    each level above pairs the nodes of the one below (a lone last node moves up as
+    it is). A node holds leaf positions ``lo..hi``, its chord runs from its first
+    segment's start to its last one's end, and its radius bounds the distance of
+    every leaf capsule below it from that chord (distance to a segment is convex, so
+    the end points of a child's chord bound it; the outer ones lie on the chord).
+    """
+
+    def __init__(self, tubes):
+        lines = tubes.lines
+        groups = lines.groups
+        self.real = _is_segment(groups)
+        r = reach(tubes)
+        self.reach = np.maximum(r, groups.following(r))           # per column: its segment's
+        size = groups.size
+        lo = np.arange(size)
+        start, seg = lines.xyz, lines.segments
+        self.levels = [(lo, lo, start, seg, self.reach)]        # level 0: segment vectors
+        lo = np.arange(0, size, RUN)
+        hi = np.minimum(lo + RUN - 1, size - 1)
+        a, b = start[:, lo], start[:, hi] + seg[:, hi]
+        middle = 0.5 * (a + b)
+        # a column's end is the next one's start (but around a closed tube's seam), so
+        # the starts and each run's end bound its points; whole runs as a (3, G, RUN) view
+        whole = size // RUN
+        far = np.empty(len(lo))
+        head = start[:, :whole * RUN].reshape(3, whole, RUN) - middle[:, :whole, None]
+        far[:whole] = np.sqrt(np.einsum("i...,i...->...", head, head).max(axis=1))
+        if whole < len(lo):
+            far[whole:] = norm(start[:, whole * RUN:] - middle[:, -1:], 0).max()
+        seam = groups.last[groups.closed]
+        at = seam // RUN
+        np.maximum.at(far, at, norm(start[:, seam] + seg[:, seam] - middle[:, at], 0))
+        radius = (np.maximum(far, 0.5 * norm(b - a, 0)) + np.maximum.reduceat(self.reach, lo))
+        self.levels.append((lo, hi, a, b, radius))
+        while len(self.levels[-1][0]) > 1:
+            lo, hi, a, b, rad = self.levels[-1]
+            pairs = len(lo) // 2
+            a0, b0, a1, b1 = a[:, 0:2 * pairs:2], b[:, 0:2 * pairs:2], a[:, 1::2], b[:, 1::2]
+            chord = b1 - a0
+            bound = np.maximum(_point_segment_distance(b0, a0, chord),
+                               _point_segment_distance(a1, a0, chord))
+            radius = np.maximum(rad[0:2 * pairs:2], rad[1::2]) + bound
+            if len(lo) % 2:                                       # the lone last node
+                a0, b1 = np.concatenate([a0, a[:, -1:]], 1), np.concatenate([b1, b[:, -1:]], 1)
+                radius = np.concatenate([radius, rad[-1:]])
+            self.levels.append((lo[::2], hi[1::2] if len(lo) % 2 == 0 else
+                                np.concatenate([hi[1::2], hi[-1:]]), a0, b1, radius))
+
+
+#: columns per node of the capsule tree's first level above the segments
+RUN = 8
 
 
 def distant_pairs(tubes):
-    """Sample pairs, one tube's each, closer than their radii where the distance
-    along the path has a local minimum over the sample grid and the samples are more
-    than two steps apart along the path.
+    """Segment column pairs ``(i, j)``, ``i < j``, of one tube each, where the tube
+    comes back to itself: their capsules overlap and so do their convex units.
 
-    Samples every quarter of each tube's smallest radius keep the detection error to
-    a few thousandths of the radius. Candidate pairs come from two sources that
-    together cover every pair within reach (twice the largest radius): pairs a few
-    samples apart (:func:`_band_pairs`) and pairs of chunks of samples a KD-tree
-    finds close (:func:`_chunk_pairs`); neither enumerates the many trivial pairs
-    of neighbours along the tube that a KD-tree over all samples would.
+    Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``, and the
+    (K,) sorted segment columns of all of them (the stretches a union must merge).
     """
     lines = tubes.lines
     groups = lines.groups
-    rho = tubes.ring_radii
-    reach = 2.0 * np.maximum.reduceat(rho, groups.first)      # the farthest a pair can reach
-    step = 0.25 * np.minimum.reduceat(rho, groups.first)
-    samples, points, s, radii = _samples(tubes, step)
-    spacing = lines.lengths / np.where(samples.closed, samples.counts, samples.counts - 1)
-    near = np.ceil(reach / spacing).astype(np.int64)   # samples a straight run stays in reach
-    chunk = np.maximum(near // 2, 1)
-    # beyond this many samples apart, chunks whose middles are within reach are not
-    # neighbours along the tube; a tube is never farther apart than this around it
-    count = samples.counts
-    band = np.minimum(near + 2 * chunk, np.where(samples.closed, count // 2, count - 1))
-    i, j = (np.concatenate(p) for p in zip(_band_pairs(samples, points, radii, band),
-                                           _chunk_pairs(samples, points, reach, spacing,
-                                                        chunk, band)))
-    i, j = np.minimum(i, j), np.maximum(i, j)
-    points = np.ascontiguousarray(points.T)                   # rows: fast to gather pairs of
-    tube = samples.index[i]
-    length = lines.lengths[tube]
-    gap = np.abs(s[i] - s[j])
-    gap = np.where(samples.closed[tube], np.minimum(gap, length - gap), gap)
-    keep = np.flatnonzero(gap > 2.0 * step[tube])
+    empty = np.empty(0, np.int64)
+    total = groups.sums(lines.turning_angles)
+    if groups.size < 3 or (total < RIGHT_ANGLE).all():         # no tube can come back
+        return empty, empty, np.empty(0), empty
+    tree = _CapsuleTree(tubes)
+    leaf_tube = groups.index
+    turning = np.cumsum(lines.turning_angles)                       # C[k]: points 0..k
+    top = len(tree.levels) - 1
+    a = b = np.zeros(1, np.int64)
+    for level in range(top, -1, -1):
+        lo, hi, start, end, radius = tree.levels[level]
+        if level == 0:                                           # runs into their columns
+            run_lo, run_hi = tree.levels[1][:2]
+            di, dj = (x.reshape(-1) for x in np.meshgrid(np.arange(RUN), np.arange(RUN),
+                                                         indexing="ij"))
+            ca, cb = run_lo[a][:, None] + di, run_lo[b][:, None] + dj
+            keep = (ca <= run_hi[a][:, None]) & (cb <= run_hi[b][:, None]) & (
+                (a != b)[:, None] | (ca < cb))
+            a, b = ca[keep], cb[keep]
+        elif level < top:                                        # split each pair's nodes
+            count = len(lo)
+            same = a == b
+            ca = np.stack([2 * a, 2 * a, 2 * a + 1, 2 * a + 1], 1)
+            cb = np.stack([2 * b, 2 * b + 1, 2 * b, 2 * b + 1], 1)
+            keep = (ca < count) & (cb < count) & ~(same[:, None] & (ca > cb))
+            a, b = ca[keep], cb[keep]
+        la, ha, lb, hb = lo[a], hi[a], lo[b], hi[b]
+        ta, tb = leaf_tube[la], leaf_tube[hb]
+        one = (ta == leaf_tube[ha]) & (tb == leaf_tube[lb])     # each within one tube
+        keep = ~one | (ta == tb)
+        if level:
+            gap = segment_distance(start[:, a], end[:, a] - start[:, a],
+                                   start[:, b], end[:, b] - start[:, b])
+        else:                                                    # end holds the segments
+            gap = segment_distance(start[:, a], end[:, a], start[:, b], end[:, b])
+        keep &= gap < radius[a] + radius[b]
+        # the stretch joining the two runs turns by at most `most`, around a closed
+        # tube the other way by at least total - `least`
+        most = turning[np.maximum(ha, hb)] - turning[la]
+        least = np.where(lb > ha, turning[lb] - turning[ha], 0.0)
+        closed = groups.closed[ta]
+        straight = (most < RIGHT_ANGLE) | (closed & (total[ta] - least < RIGHT_ANGLE))
+        keep &= ~(one & (ta == tb) & straight)
+        a, b = a[keep], b[keep]
+    i, j = a, b
+    keep = (i != j) & (leaf_tube[a] == leaf_tube[b]) & tree.real[a] & tree.real[b]
     i, j = i[keep], j[keep]
-    dist = norm(points[i] - points[j])
-    keep = np.flatnonzero(dist < radii[i] + radii[j])
-    i, j, dist = i[keep], j[keep], dist[keep]
-    # a local minimum over the sample grid
-    first, count = samples.first, samples.counts
-    for di, dj in ((1, 0), (-1, 0), (0, -1), (0, 1)):
-        tube = samples.index[i]
-        start, n = first[tube], count[tube]
-        ii, jj = i + di - start, j + dj - start
-        closed = samples.closed[tube]
-        valid = closed | ((ii >= 0) & (ii < n) & (jj >= 0) & (jj < n))
-        ii, jj = start + ii % n, start + jj % n
-        keep = np.flatnonzero(~valid | (norm(points[ii] - points[jj]) >= dist))
-        i, j, dist = i[keep], j[keep], dist[keep]
+    _, next_i = _neighbours(groups, i)
+    _, next_j = _neighbours(groups, j)
+    keep = (next_i != j) & (next_j != i)                           # not adjacent
+    i, j = i[keep], j[keep]
+    xyz, seg, r = lines.xyz, lines.segments, tree.reach
+    dist = segment_distance(xyz[:, i], seg[:, i], xyz[:, j], seg[:, j])
+    close = dist < r[i] + r[j]
+    i, j, dist = i[close], j[close], dist[close]
+    hit = _units_meet(tubes, i, j)
+    i, j, dist = i[hit], j[hit], dist[hit]
     order = np.lexsort((j, i))
-    return samples, s, radii, i[order], j[order], dist[order]
+    i, j, dist = i[order], j[order], dist[order]
+    return i, j, dist, np.unique(np.concatenate([i, j]))
 
 
-def _band_pairs(samples, points, radii, band):
-    """Pairs of samples at most ``band`` (per tube) apart along their tube (around a
-    closed one), each pair once, that could be a local minimum of distance: closer
-    than their radii, and no farther apart than the pair one sample shorter.
-
-    Each tube's samples are followed by ``band`` more (its first ones again if it
-    is closed), so the pairs ``m`` apart are two shifted slices of one array. Tubes
-    are laid out widest band first: the tubes still taking part at each ``m`` are a
-    prefix of it. The loop's arrays are allocated once and reused.
-    """
-    order = np.argsort(-band, kind="stable")
-    n, width = samples.counts[order], band[order]
-    ext = Groups(n + width + 1)
-    local = ext.local()
-    count = ext.spread(n)
-    src = ext.spread(samples.first[order]) + local % count
-    # the largest m at which a sample still starts a new pair: an open tube ends; around
-    # a closed one, the pair m apart is the pair count - m apart the other way
-    closed = ext.spread(samples.closed[order])
-    halfway = (count - 1) // 2 + ((count % 2 == 0) & (local < count // 2))
-    reach_m = np.where(local >= count, -1, np.where(closed, halfway, count - 1 - local))
-    p, r = points[:, src], radii[src]
-    slack = 1.0 + 1e-9                  # a sieve: the exact test of the candidates follows
-    diff = np.empty((3, ext.size))
-    d2, previous = np.empty(ext.size), np.zeros(ext.size)   # previous: one sample shorter
-    bound = np.empty(ext.size)
-    keep, test = np.empty(ext.size, bool), np.empty(ext.size, bool)
-    pairs_i, pairs_j = [], []
-    for m in range(1, int(width.max(initial=0)) + 1):
-        end = int(ext.starts[np.searchsorted(-width, -m, side="right")])   # tubes with band >= m
-        size = end - m
-        dv, d, lim, ok, t = diff[:, :size], d2[:size], bound[:size], keep[:size], test[:size]
-        np.subtract(p[:, m:end], p[:, :size], out=dv)
-        np.einsum("i...,i...->...", dv, dv, out=d)
-        np.greater_equal(reach_m[:size], m, out=ok)
-        np.multiply(previous[:size], slack, out=lim)
-        ok &= np.less_equal(d, lim, out=t)
-        np.add(r[:size], r[m:end], out=lim)
-        np.square(lim, out=lim)
-        lim *= slack
-        ok &= np.less(d, lim, out=t)
-        q = np.flatnonzero(ok)
-        pairs_i.append(src[q])
-        pairs_j.append(src[q + m])
-        d2, previous = previous, d2
-    return np.concatenate(pairs_i, dtype=np.int64), np.concatenate(pairs_j, dtype=np.int64)
+#: unit pairs tested at once by :func:`_units_meet` (bounds its memory)
+UNIT_BLOCK = 2048
 
 
-def _chunk_pairs(samples, points, reach, spacing, chunk, band):
-    """Pairs of samples more than ``band`` apart along their tube that may lie within
-    ``reach``: all pairs from two chunks of ``chunk`` consecutive samples whose
-    middle samples are within ``reach`` plus a chunk's length.
+def _unit_points(tubes, cols, sides):
+    """(P, 4 * sides, 3) points whose hull holds each segment's unit, and (P, 3) the
+    segments' directions: its two end rings (each twice), or at a corner beyond the
+    miter limit (a ball joint) a prism square to the segment around the ball."""
+    from cadpipe.geometry.rings import ring_basis
 
-    One KD-tree holds every tube's chunks, each tube scaled by that distance and laid
-    apart from the others, so a single query radius finds each tube's own pairs.
-    """
-    from scipy.spatial import cKDTree  # imported here: the CLI starts faster without it
+    lines, groups = tubes.lines, tubes.groups
+    nxt = groups.following(np.arange(groups.size))[cols]
+    d = np.ascontiguousarray(lines.directions[:, cols].T)
+    out = []
+    for at in (cols, nxt):
+        ring = np.matmul(ring_basis(sides), tubes.axes[at])           # (P, sides, 3)
+        over = tubes.miter_stretch[at] > tubes.miter_limit[groups.index[at]]
+        ring_a, ring_b = ring, ring
+        if over.any():
+            centre = lines.xyz[:, at[over]].T[:, None]
+            rho = tubes.ring_radii[at[over]][:, None, None]
+            dd = d[over][:, None]
+            flat = ring[over] - centre
+            flat = (flat - np.sum(flat * dd, -1, keepdims=True) * dd) * (
+                BALL_REACH / np.cos(np.pi / sides))
+            ring_a, ring_b = ring.copy(), ring.copy()
+            ring_a[over] = centre + flat - BALL_REACH * rho * dd
+            ring_b[over] = centre + flat + BALL_REACH * rho * dd
+        out += [ring_a, ring_b]
+    return np.concatenate(out, axis=1), d
 
-    n = samples.counts
-    chunks = Groups(-(-n // chunk), samples.closed)
-    k = chunks.spread(chunk)
-    start = chunks.spread(samples.first) + chunks.local() * k
-    size = np.minimum(k, chunks.spread(samples.first + n) - start)
-    middle = start + np.minimum(k // 2, size - 1)
-    scaled = np.ascontiguousarray((points[:, middle] / chunks.spread(reach + chunk * spacing)).T)
-    low = np.minimum.reduceat(scaled[:, 0], chunks.first)
-    high = np.maximum.reduceat(scaled[:, 0], chunks.first)
-    scaled[:, 0] += chunks.spread(np.concatenate([[0.0], np.cumsum(high - low + 2.0)])[:-1] - low)
-    a, b = cKDTree(scaled).query_pairs(1.0 + 1e-9, output_type="ndarray").T
-    band_of = band[chunks.index]
-    keep = np.flatnonzero((b - a + 1) * k[a] - 1 > band_of[a])   # else all within the band
-    a, b = a[keep], b[keep]
-    # every sample of chunk a with every sample of chunk b
-    pairs = Groups(size[a] * size[b])
-    offset = pairs.local()
-    width = pairs.spread(size[b])
-    i = pairs.spread(start[a]) + offset // width
-    j = pairs.spread(start[b]) + offset % width
-    m = j - i
-    count = n[samples.index[i]]
-    m = np.where(samples.closed[samples.index[i]], np.minimum(m, count - m), m)
-    keep = np.flatnonzero(m > band[samples.index[i]])
-    return i[keep], j[keep]
+
+def _units_meet(tubes, i, j):
+    """(P,) True where the convex units of segment columns ``i`` and ``j`` overlap by
+    more than a touch: no plane among both units' side faces, ring planes and the
+    line between their centres separates them."""
+    hit = np.zeros(len(i), bool)
+    if not len(i):
+        return hit
+    sides = tubes.sides[tubes.groups.index[i]]
+    for n in np.unique(sides).tolist():
+        rows = np.flatnonzero(sides == n)
+        for start in range(0, len(rows), UNIT_BLOCK):
+            block = rows[start:start + UNIT_BLOCK]
+            hit[block] = ~_separated(tubes, i[block], j[block], n)
+    return hit
+
+
+def _separated(tubes, i, j, sides):
+    """(P,) True where a candidate axis separates the units of columns ``i``, ``j``."""
+    pi, di = _unit_points(tubes, i, sides)
+    pj, dj = _unit_points(tubes, j, sides)
+    return _apart(pi, pj, [_unit_axes(pi, di, sides), _unit_axes(pj, dj, sides)])
+
+
+def _unit_axes(pts, d, sides):
+    """(P, A, 3) the face normals of units (points as :func:`_unit_points` gives them):
+    side faces, the segment direction, both end rings' planes."""
+    ring = pts[:, :sides]
+    edge = np.roll(ring, -1, axis=1) - ring
+    axes = [np.cross(edge, d[:, None]), d[:, None]]
+    for k in (0, 2):                                    # the planes of both end rings
+        rk = pts[:, k * sides:(k + 1) * sides]
+        axes.append(np.cross(rk[:, 1] - rk[:, 0], rk[:, sides // 2 + 1] - rk[:, 0])[:, None])
+    return np.concatenate(axes, axis=1)
+
+
+def _apart(pi, pj, axes):
+    """(P,) True where one of ``axes`` (list of (P, A_k, 3)), or the line between the
+    centres, separates the hulls of point sets ``pi`` and ``pj`` ((P, K, 3) each)."""
+    axes = np.concatenate([*axes, (pi.mean(axis=1) - pj.mean(axis=1))[:, None]], axis=1)
+    size = np.linalg.norm(axes, axis=2, keepdims=True)
+    axes = axes / np.where(size > 0, size, 1.0)
+    # about the pair's middle: a touch is judged against their size, not their distance
+    # from the origin
+    middle = pi.mean(axis=1, keepdims=True)
+    pi, pj = pi - middle, pj - middle
+    a = np.einsum("pak,pvk->pav", axes, pi)
+    b = np.einsum("pak,pvk->pav", axes, pj)
+    tol = 1e-9 * (np.abs(pi).max(axis=(1, 2)) + np.abs(pj).max(axis=(1, 2)))[:, None]
+    apart = (a.max(axis=2) <= b.min(axis=2) + tol) | (b.max(axis=2) <= a.min(axis=2) + tol)
+    return apart.any(axis=1)
+
+
+def piece_meets_units(tubes, points, cols):
+    """(P,) True where the convex hull of ``points`` ((K, 3), e.g. an end cap) overlaps
+    the unit of each segment column in ``cols`` (tested as :func:`_units_meet` does,
+    with the hull's own face normals as further axes); columns of one tube."""
+    from scipy.spatial import ConvexHull
+
+    hit = np.zeros(len(cols), bool)
+    if not len(cols):
+        return hit
+    normals = ConvexHull(points, qhull_options="QJ").equations[:, :3]
+    sides = int(tubes.sides[tubes.groups.index[cols[0]]])
+    for start in range(0, len(cols), UNIT_BLOCK):
+        block = slice(start, start + UNIT_BLOCK)
+        pj, dj = _unit_points(tubes, cols[block], sides)
+        pi = np.broadcast_to(points, (len(pj), *points.shape))
+        hit[block] = ~_apart(pi, pj, [np.broadcast_to(normals, (len(pj), *normals.shape)),
+                                      _unit_axes(pj, dj, sides)])
+    return hit
+
+
+def _neighbours(groups, cols):
+    """The previous and next segment column of each segment column (-1 past an open
+    tube's ends)."""
+    tube = groups.index[cols]
+    first, last, closed = groups.first[tube], groups.last[tube], groups.closed[tube]
+    end = np.where(closed, last, last - 1)                        # the last real segment
+    prev = np.where(cols > first, cols - 1, np.where(closed, end, -1))
+    nxt = np.where(cols < end, cols + 1, np.where(closed, first, -1))
+    return prev, nxt
+
+
+def _distant_overlaps(tubes):
+    """Stretches apart along the path that come within the tube's reach of each other;
+    see :func:`distant_pairs`."""
+    lines = tubes.lines
+    groups = lines.groups
+    i, j, dist, merged = distant_pairs(tubes)
+    if not len(i):
+        return i, None, {}
+    r = reach(tubes)
+    reach_i = np.maximum(r[i], groups.following(r)[i])
+    reach_j = np.maximum(r[j], groups.following(r)[j])
+    radius = np.maximum(tubes.ring_radii, groups.following(tubes.ring_radii))
+
+    def describe(hit):
+        a, b = i[hit], j[hit]
+        widened = reach_i[hit] > radius[a] * (1 + 1e-9) or reach_j[hit] > radius[b] * (1 + 1e-9)
+        why = " (with the miter tips of its corners)" if widened else ""
+        return (f"{_where(lines, a)} and {_where(lines, b)}: the tube passes within "
+                f"{dist[hit]:.6g} of itself, less than its reach {reach_i[hit]:.6g} + "
+                f"{reach_j[hit]:.6g} there{why}")
+
+    return groups.index[i], describe, _segments_around(groups, merged, 0, 0)

@@ -21,6 +21,8 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
+from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, piece_meets_units,
+                                        reach, segment_distance)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis
@@ -110,9 +112,15 @@ class Pipe:
         Largest allowed stretch ``1/cos(turn/2)`` of a mitered ring (default 4, as SVG).
     cap_segments : int, optional
         Latitude steps of a round cap or ball joint (default ``max(2, sides // 4)``).
-    repair : bool
-        If the tube would intersect itself, build the solid as a manifold3d union of
-        its convex units instead of raising :class:`GeometryError`.
+    strict : bool
+        False (default): where the tube would overlap itself (a fold, a return, a
+        corner beyond ``miter_limit``), :meth:`mesh` builds the swept solid there, the
+        manifold3d union of that stretch's convex units (a corner beyond the miter
+        limit becomes a ball joint); ``mesh().attributes["merged"]`` lists the merged
+        stretches. True: raise :class:`GeometryError` naming the place instead.
+    repair : bool, optional
+        Deprecated alias: ``repair=True`` is the default, ``repair=False`` is
+        ``strict=True``.
     """
 
     path: Path
@@ -129,7 +137,8 @@ class Pipe:
     bend_radius: float | None = None
     miter_limit: float = 4.0
     cap_segments: int | None = None
-    repair: bool = False
+    strict: bool = False
+    repair: bool | None = None
 
     def __post_init__(self):
         set_ = partial(object.__setattr__, self)
@@ -145,7 +154,12 @@ class Pipe:
         set_("frame", as_choice(self.frame, "frame", FRAME_MODES))
         set_("corners", as_choice(self.corners, "corners", CORNER_STYLES))
         set_("envelope", bool(self.envelope))
-        set_("repair", bool(self.repair))
+        if self.repair is not None:
+            _deprecated.warn("Pipe(repair=...)", "the default (overlaps are merged into the "
+                             "swept solid), or strict=True to refuse them", stacklevel=4)
+            set_("strict", not self.repair)
+            set_("repair", None)
+        set_("strict", bool(self.strict))
         for name in ("normal", "end_normal"):
             value = getattr(self, name)
             set_(name, None if value is None else tuple(as_direction(value, name).tolist()))
@@ -358,25 +372,86 @@ class Pipe:
             "Pipe.attributes")
 
     # -- checks and mesh -----------------------------------------------------
-    def self_intersections(self) -> list[str]:
-        """Deprecated: :meth:`self_intersection_findings`."""
-        _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
-        return self.self_intersection_findings()
+    def folds(self) -> "Folds":
+        """Where the tube would cut through itself.
+
+        Checks, cheapest first, miter limits, rings that overlap within a segment
+        (the radius exceeds the local bend radius) and stretches apart along the
+        path that come closer than the tube reaches there, miter tips included.
+
+        Returns
+        -------
+        folds : Folds
+            False when the tube is clean; else its findings and the segments a union
+            merges (:class:`~cadpipe.geometry.clearance.Folds`).
+        """
+        return self._folds()
+
+    def _folds(self, first_only=False):
+        """:meth:`folds`; with ``first_only`` the checks stop at the first kind that
+        finds anything (all a refusal needs)."""
+        folds = self._tubes.folds(first_only=first_only)[0]
+        if folds and first_only:
+            return folds
+        messages, segments = self._cap_folds
+        if not messages:
+            return folds
+        return Folds(folds.messages + messages, np.union1d(folds.segments, segments),
+                     folds.joints)
+
+    @cached_property
+    def _cap_folds(self):
+        """Where an end cap (round, or an envelope's flat cap reaching ``r`` past the
+        end) overlaps the unit of a segment other than its own: findings, and the
+        segments a union merges (the cap's own and those it reaches)."""
+        empty = ((), np.empty(0, np.int64))
+        count = len(self.path.segments)
+        if self.closed or count < 2:
+            return empty
+        tubes, lines = self._tubes, self._tubes.lines
+        r = reach(tubes)
+        reach_seg = np.maximum(r[:-1], r[1:])
+        messages, merged = [], []
+        for row, sign, seg, style, name in ((0, -1, 0, self.cap_styles[0], "start"),
+                                            (count, 1, count - 1, self.cap_styles[1], "end")):
+            cap = cap_axes(tubes, row, sign, self, style)
+            if cap is None:
+                continue
+            points = np.concatenate([self.rings()[row],
+                                     np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3),
+                                     np.empty((0, 3)) if cap[1] is None else cap[1][None]])
+            centre = points.mean(axis=0)
+            size = float(np.linalg.norm(points - centre, axis=1).max())
+            cols = np.delete(np.arange(count), seg)
+            gap = segment_distance(np.broadcast_to(centre[:, None], (3, len(cols))),
+                                   np.zeros((3, len(cols))), lines.xyz[:, cols],
+                                   lines.segments[:, cols])
+            cols = cols[gap < size + reach_seg[cols]]
+            hit = cols[piece_meets_units(tubes, points, cols)]
+            if hit.size:
+                k = int(hit[0])
+                messages.append(
+                    f"the {name} cap (caps={style!r}{', envelope=True' if self.envelope else ''}"
+                    f") reaches the tube between path points {k} and {k + 1} (arc length "
+                    f"{self.path.arc_length[k]:.6g}); lengthen the {name} segment or reduce "
+                    "the radius" + (", or use caps='flat'" if style == "round" else ""))
+                merged += [seg, *hit.tolist()]
+        return tuple(messages), np.unique(np.asarray(merged, np.int64))
 
     def self_intersection_findings(self) -> list[str]:
-        """Where the tube would cut through itself: a list of human-readable findings.
+        """Where the tube would cut through itself.
 
         Returns
         -------
         findings : list of str
             Empty for a tube that does not cut through itself.
-
-
-        Checks miter limits, rings that overlap within a segment (the radius exceeds
-        the local bend radius) and non-neighbouring parts of the tube closer than
-        the sum of their radii.
         """
-        return self._tubes.self_intersection_findings()[0]
+        return list(self.folds().messages)
+
+    def self_intersections(self) -> list[str]:
+        """Deprecated: :meth:`self_intersection_findings`."""
+        _deprecated.warn("Pipe.self_intersections()", "Pipe.self_intersection_findings()")
+        return self.self_intersection_findings()
 
     def mesh(self) -> Mesh:
         """The closed, outward-oriented, watertight triangle mesh of this pipe.
@@ -384,21 +459,39 @@ class Pipe:
         Returns
         -------
         mesh : Mesh
+            The tube, or where it would overlap itself the swept solid.
 
-        Raises :class:`GeometryError` if the tube intersects itself, unless the pipe
-        was made with ``repair=True``.
+        A clean tube is its rings stitched together. Where it would overlap itself the
+        result is the swept solid instead (see ``strict``): the clean stretches as
+        they are, united through manifold3d with the convex units of the stretches
+        that overlap; ``attributes["merged"]`` names them. With ``strict=True`` such a
+        tube raises :class:`GeometryError` naming the place.
         """
-        problems = self.self_intersection_findings()
-        if problems:
-            if not self.repair:
-                raise GeometryError(f"the pipe intersects itself: {problems[0]}"
-                                    + (f" (and {len(problems) - 1} more)" if len(problems) > 1
-                                       else "")
-                                    + "; smooth the path or reduce the radius, or repair it",
-                                    fix={"repair": True})
-            return self._repaired_mesh()
-        vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-        return Mesh.trusted(vertices, faces, attributes=self.attributes)
+        self._require_float32()
+        folds = self._folds(first_only=self.strict)
+        if not folds:
+            vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
+            return Mesh.trusted(vertices, faces, attributes=self.attributes)
+        if self.strict:
+            problems = folds.messages
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
+                                "path, reduce the radius, or build the swept solid instead",
+                                fix={"strict": False})
+        return self._swept_mesh(folds)
+
+    def _require_float32(self):
+        """Refuse a tube finer than float32 coordinates resolve at its distance from the
+        origin: STL, 3MF, OBJ, PLY and GLB files would weld its rings shut (rings closer
+        than that along the path merge into one, which leaves a valid surface)."""
+        edge = 2 * float(self.ring_radii.min()) * np.sin(np.pi / self.sides)
+        largest = float(np.abs(self.path.points).max()) + float(self.ring_radii.max())
+        step = FLOAT32_STEPS * float(np.finfo(np.float32).eps) * largest
+        if edge < step:
+            raise GeometryError(
+                f"the tube's ring edges ({edge:.3g} long) are finer than float32 files can "
+                f"hold {largest:.3g} from the origin (steps of {step:.3g} there); move the "
+                "path nearer the origin or use a larger radius", key="radius")
 
     def surface(self, *, cap_start: bool = True,
                 cap_end: bool = True) -> tuple[np.ndarray, np.ndarray]:
@@ -430,7 +523,7 @@ class Pipe:
         return self.convex_pieces(overlap)
 
     def convex_pieces(self, overlap: float = 0.0) -> list[np.ndarray]:
-        """Convex pieces whose union is the tube: each path unit, plus round caps.
+        """Convex pieces whose union is the tube: each path unit, ball joints, round caps.
 
         Parameters
         ----------
@@ -444,30 +537,14 @@ class Pipe:
             The points whose convex hull is each piece.
 
         Each unit is the point set of two consecutive rings (their convex hull is the
-        unit); a round cap is its end ring, cap rings and pole. ``overlap`` pushes
-        each unit's rings that far outward along its segment, so that neighbouring
-        units overlap instead of merely touching (booleans treat touching solids as
-        apart).
+        unit); at a ball joint (``corners="round"``) the units are cut square at the
+        corner and a ball holds it; a cap is its end ring and the cap's rings and pole.
+        ``overlap`` pushes each unit's rings that far outward along its segment, so that
+        neighbouring units overlap instead of merely touching (booleans treat touching
+        solids as apart). The swept solid is built from these same pieces.
         """
-        rings = self.rings()
-        arriving, leaving, pieces = rings.copy(), rings.copy(), []
-        for row in np.flatnonzero(joint_rows_of(self._tubes, 0, len(rings) - 1, self)):
-            joint = _joint(self._tubes, row, self)[1]
-            arriving[row], leaving[row] = joint[0], joint[-1]
-            pieces.append(joint.reshape(-1, 3))
-        cur = np.arange(len(self.path.segments))
-        nxt = (cur + 1) % len(rings)
-        shift = overlap * self.path.directions[:, None, :]
-        pieces += list(np.concatenate([leaving[cur] - shift, arriving[nxt] + shift], axis=1))
-        if not self.closed:
-            for row, sign, style in ((0, -1, self.cap_styles[0]),
-                                     (len(rings) - 1, 1, self.cap_styles[1])):
-                cap = cap_axes(self._tubes, row, sign, self, style)
-                if cap is not None:
-                    cap_rings = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
-                    pole = np.empty((0, 3)) if cap[1] is None else cap[1][None]
-                    pieces.append(np.concatenate([rings[row], cap_rings, pole]))
-        return pieces
+        rows = np.flatnonzero(joint_rows_of(self._tubes, 0, len(self.path) - 1, self))
+        return _units(self, np.arange(len(self.path.segments)), rows, overlap=overlap)
 
     def collision_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Round cones whose union contains this pipe's mesh: the collision model.
@@ -517,22 +594,292 @@ class Pipe:
                     end_r.append(rho[row:row + 1])
                 else:
                     vertices = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
-                    reach = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
+                    extent = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
                     starts.append(end[None])
                     ends.append(end[None])
-                    start_r.append([max(reach, rho[row])])
-                    end_r.append([max(reach, rho[row])])
+                    start_r.append([max(extent, rho[row])])
+                    end_r.append([max(extent, rho[row])])
         return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
                 np.concatenate(end_r))
 
-    def _repaired_mesh(self):
-        """Union of the convex units through manifold3d: valid even where the tube folds."""
+    def _swept_mesh(self, folds):
+        """The tube with each stretch that folds replaced by the union of its convex
+        units (:func:`_units`), the clean stretches kept as they are, all united by
+        manifold3d and welded at float32 precision (:func:`welded_solid`).
+
+        Inside a merged stretch every corner beyond the miter limit, and every ball
+        joint, is a ball with the units cut square at it; a stretch is widened until
+        it ends on plain rings, so a clean piece never ends on a joint."""
         import manifold3d
 
-        overlap = 1e-6 * float(self.ring_radii.max())
-        hulls = [manifold3d.Manifold.hull_points(p) for p in self.convex_pieces(overlap)]
-        solid = manifold3d.Manifold.batch_boolean(hulls, manifold3d.OpType.Add)
-        return Mesh.from_manifold(solid, attributes={**self.attributes, "repaired": True})
+        n, count = len(self.path), len(self.path.segments)
+        merged = np.zeros(count, bool)
+        merged[folds.segments] = True
+        rows = np.arange(n)
+        before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
+        after = np.where(rows < count, rows, -1)
+        corner = (before >= 0) & (after >= 0)
+        ball = corner & (joint_rows_of(self._tubes, 0, n - 1, self)
+                         | (self.miter_stretch > self.miter_limit))
+        ball[folds.joints] = True
+        while True:                         # widen stretches that end on a ball joint
+            touched = ball & (merged[before] | merged[after]) & ~(merged[before]
+                                                                  & merged[after])
+            if not touched.any():
+                break
+            merged[before[touched]] = merged[after[touched]] = True
+        joints = np.flatnonzero(ball & merged[before] & merged[after])
+        # manifold3d's tolerance grows with the coordinates: unite about the pipe's middle
+        low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
+        middle = 0.5 * (low + high)
+        pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE)
+        solids = [manifold3d.Manifold.hull_points(p - middle) for p in pieces]
+        if not merged.all():
+            for a, b in _runs(~merged, self.closed):
+                piece = self._piece(a, b)
+                solids.append(Mesh.trusted(piece.vertices - middle, piece.faces)
+                              .to_manifold("pipe"))
+        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+        solid = solid.translate(tuple(middle.tolist()))
+        stretches = _runs(merged, self.closed)
+        arc = self.path.arc_length
+        spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
+                                     else self.path.length)) for a, b in stretches]
+        names = "; ".join(f"path points {a}..{(b + 1) % len(arc)} (arc length {s:.6g} to "
+                          f"{e:.6g})" for (a, b), (s, e) in zip(stretches, spans))
+        return welded_solid(solid, attributes={
+            **self.attributes, "merged": names,
+            "merged_arc_lengths": tuple(x for span in spans for x in span),
+            "folds": folds.messages[0]})
+
+    def _piece(self, first, last):
+        """The closed solid of the clean segments ``first..last`` (wrapping around a
+        closed pipe): laid out by :func:`add_pipe_surfaces` as the whole pipe is, with
+        flat fans where the stretch is cut."""
+        surface = Surface()
+        add_pipe_surfaces(surface, self._tubes, [self], cap_start=[True], cap_end=[True],
+                          windows=[(first, last)])
+        vertices, faces, _ = surface.build()
+        return Mesh.trusted(vertices, faces)
+
+
+#: merged units reach this fraction of the ring radius into their neighbours (see _units)
+TONGUE = 1e-3
+
+
+def welded_solid(solid, **kwargs):
+    """The :class:`Mesh` of a manifold3d ``solid``, with no two vertices closer than
+    float32 can tell apart at its size.
+
+    A union leaves clusters of vertices where its pieces meet at grazing angles; STL,
+    3MF, OBJ and PLY files (float32) would merge them, into edges shared by more than
+    two faces. A solid with vertices closer than :data:`FLOAT32_CLOSE` units in the
+    last place of its largest coordinate is simplified by manifold3d's own edge
+    collapses (:data:`FLOAT32_WELD`) and its clusters merged; a weld that changes the
+    volume, leaves an open or badly wound surface, or folds a sliver through a face is
+    not taken, and smaller distances are tried, down to :data:`FLOAT32_CLOSE` units;
+    failing all, the float64 solid as manifold3d made it.
+    """
+    from scipy.spatial import cKDTree
+
+    if solid.is_empty():
+        raise GeometryError("the swept solid is empty")
+    low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
+    ulp = 2.0 ** -23 * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    volume = solid.volume()
+    plain = Mesh.from_manifold(solid, **kwargs)
+    if not len(cKDTree(plain.vertices).query_pairs(FLOAT32_CLOSE * ulp,
+                                                   output_type="ndarray")):
+        return plain                                 # nothing a float32 file would merge
+    for ulps in (FLOAT32_WELD, 4, FLOAT32_CLOSE):
+        welded = _weld(plain, ulps * ulp, kwargs)
+        if welded is not None and abs(welded[0].volume - volume) <= WELD_VOLUME * volume \
+                and not _crossings_near(*welded, ulps * ulp):
+            return welded[0]
+    return plain
+
+
+def _crossings_near(mesh, moved, shift):
+    """Whether a face of ``mesh`` that the weld ``moved`` ((F,) bool, each point by at
+    most ``shift``) cuts through another face. The rest is manifold3d's surface as it
+    made it, which does not, so only faces whose boxes come within ``shift`` of a moved
+    face's box are tested."""
+    from cadpipe.solids.intersect import self_intersections
+
+    if not moved.any():
+        return False
+    tri = mesh.triangles
+    low, high = tri.min(axis=1), tri.max(axis=1)
+    near = moved.copy()
+    for rows in np.array_split(np.flatnonzero(moved), max(1, int(moved.sum()) // 256)):
+        near |= ((low[None] <= high[rows, None] + shift)
+                 & (high[None] >= low[rows, None] - shift)).all(axis=2).any(axis=0)
+    return bool(len(self_intersections(Mesh.trusted(mesh.vertices, mesh.faces[near]))))
+
+
+def _weld(mesh, tol, kwargs):
+    """``mesh`` with its vertex clusters closer than ``tol`` merged and (F,) which of its
+    faces moved, or None if that does not leave a closed, oriented surface."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    vertices, faces = mesh.vertices, mesh.faces
+    pairs = cKDTree(vertices).query_pairs(tol, output_type="ndarray")
+    if not len(pairs):
+        return (mesh, np.zeros(len(faces), bool)) if len(faces) and mesh.is_oriented else None
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])),
+                       shape=(len(vertices), len(vertices)))
+    count, label = connected_components(graph, directed=False)
+    faces = label[faces]
+    keep = ((faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
+            & (faces[:, 2] != faces[:, 0]))
+    merged = np.empty((count, 3))
+    merged[label] = vertices
+    faces = faces[keep]
+    # sheets that touched along faces: such a face now comes twice, facing both ways
+    _, index, counts = np.unique(np.sort(faces, axis=1), axis=0, return_inverse=True,
+                                 return_counts=True)
+    single = counts[index.reshape(-1)] == 1
+    faces = faces[single]
+    moved = (np.bincount(label, minlength=count) > 1)[faces].any(axis=1)
+    used, faces = np.unique(faces, return_inverse=True)
+    welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
+    return (welded, moved) if len(faces) and welded.is_oriented else None
+
+
+#: weld distance, in units in float32's last place (2**-23) of the largest coordinate
+FLOAT32_WELD = 16
+#: vertices closer than this (units in the last place) may round to one float32 point
+FLOAT32_CLOSE = 2
+#: features shorter than this many float32 steps at the largest coordinate are refused
+FLOAT32_STEPS = 1
+#: a weld may change the volume by this fraction at most (else the solid was too fine)
+WELD_VOLUME = 1e-3
+
+
+def _runs(mask, closed):
+    """``[(first, last)]`` index ranges of the runs of True in ``mask``; around a closed
+    pipe a run may wrap (``last < first``)."""
+    n = len(mask)
+    if mask.all():
+        return [(0, n - 1)]
+    shift = int(np.argmin(mask)) + 1 if closed else 0        # start just after a False
+    rolled = np.roll(mask, -shift)
+    edges = np.diff(np.concatenate([[0], rolled.astype(np.int8), [0]]))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    return [((a + shift) % n, (b + shift) % n) for a, b in zip(starts.tolist(), stops.tolist())]
+
+
+def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
+    """Point sets whose convex hulls together make the tube along ``segments``.
+
+    Each segment's unit is its two end rings (a run of nearly straight segments one
+    hull of their rings, see :func:`_hull_groups`); at a corner in ``joints`` (beyond
+    the miter limit, or a ball joint) the rings there are cut square to the segment
+    instead and a ball
+    (:func:`_ball`) holds the corner. Round caps of an open pipe join the units of
+    its end segments. Where another segment continues a unit, its ring there is
+    pushed ``overlap`` along the unit's own segment, and a ``tongue`` (a fraction of
+    the ring radius) adds the ring shrunk by that fraction and moved as far into the
+    next segment: the hulls then cross their neighbours at steep angles instead of
+    sharing a face (manifold3d may leave a shared face's corners doubled).
+    """
+    path = pipe.path
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
+    n, count = len(path), len(path.segments)
+    joints = np.asarray(joints, np.int64)
+    at_joint = np.zeros(n, bool)
+    at_joint[joints] = True
+    directions, centres, lengths = path.directions, path.points, path.segment_lengths
+    radii = pipe.ring_radii
+
+    def into(p, seg, sign):
+        """Ring ``p`` shrunk and moved into segment ``seg`` (``sign``: along or back)."""
+        step = min(tongue * float(radii[p]), 0.25 * float(lengths[seg]))
+        return centres[p] + (1 - tongue) * (rings[p] - centres[p]) + sign * step * directions[seg]
+
+    def square(k, p):
+        """Segment k's cross-section at its end ``p`` (a joint): the prism's section,
+        from its other end's ring, or a fresh polygon when both ends are joints."""
+        q = (k + 1) % n if p == k else k
+        d = directions[k]
+        if at_joint[q]:
+            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
+            e1 /= np.linalg.norm(e1)
+            offsets = float(radii[p]) * (np.outer(np.cos(2 * np.pi * np.arange(pipe.sides)
+                                                         / pipe.sides), e1)
+                                         + np.outer(np.sin(2 * np.pi * np.arange(pipe.sides)
+                                                           / pipe.sides), np.cross(d, e1)))
+        else:
+            offsets = rings[q] - centres[q]
+            offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
+        return centres[p] + offsets
+
+    pieces = []
+    for first, last in _hull_groups(pipe, segments, at_joint):
+        ends = []
+        for k, p, sign, other in ((first, first, -1.0, first - 1),
+                                  (last, (last + 1) % n, 1.0, last + 1)):
+            ring = rings[p]
+            inner = pipe.closed or 0 <= other < count
+            if at_joint[p]:
+                ring = square(k, p)
+            elif inner and tongue:
+                ends.append(into(p, other % count, sign))
+            ends.append(ring + (sign * overlap * inner) * directions[k])
+        ends.insert(len(ends) // 2, rings[first + 1:last + 1].reshape(-1, 3))
+        pieces.append(np.concatenate(ends))
+    for k in joints.tolist():
+        pieces.append(_ball(centres[k], float(radii[k])))
+    if not pipe.closed:
+        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
+                                      (n - 1, 1, count - 1, pipe.cap_styles[1])):
+            end_cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+            if end_cap is not None and seg in set(np.asarray(segments).tolist()):
+                axes, pole = end_cap
+                cap = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
+                inside = into(row, seg, -sign) if tongue else rings[row] - (
+                    sign * overlap) * directions[seg]
+                tip = np.empty((0, 3)) if pole is None else pole[None]
+                pieces.append(np.concatenate([rings[row], inside, cap, tip]))
+    return pieces
+
+
+def _hull_groups(pipe, segments, at_joint):
+    """``[(first, last)]``: the sorted ``segments`` in runs whose units one convex hull
+    may replace, because the path between them strays from its chord by at most half
+    the ring polygon's own chordal deviation (the hull fills the inside of a bend by
+    about that much). A joint ends a run. With a radius far larger than the bends, a
+    whole stretch is one hull instead of hundreds of nearly equal ones."""
+    points, radii = pipe.path.points, pipe.ring_radii
+    slack = 0.5 * (1 - np.cos(np.pi / pipe.sides))
+    groups = []
+    for k in np.asarray(segments).tolist():
+        if groups and groups[-1][1] == k - 1 and not at_joint[k] and k + 1 < len(points):
+            first = groups[-1][0]
+            chord = points[k + 1] - points[first]
+            inner = points[first + 1:k + 1] - points[first]
+            along = np.clip(inner @ chord / max(float(chord @ chord), 1e-300), 0, 1)
+            stray = np.linalg.norm(inner - along[:, None] * chord, axis=1).max()
+            if stray <= slack * float(radii[first:k + 2].min()):
+                groups[-1] = (first, k)
+                continue
+        groups.append((k, k))
+    return groups
+
+
+def _ball(centre, radius):
+    """(P, 3) points whose convex hull contains the ball of ``radius`` about ``centre``
+    with a margin (:data:`~cadpipe.geometry.clearance.BALL_REACH`): a latitude-longitude
+    sphere whose faces all lie beyond the ball."""
+    lon = 2 * np.pi * np.arange(BALL_SIDES) / BALL_SIDES
+    lat = np.pi * (np.arange(1, BALL_SIDES // 2) / (BALL_SIDES // 2) - 0.5)
+    ring = np.stack([np.cos(lat)[:, None] * np.cos(lon), np.cos(lat)[:, None] * np.sin(lon),
+                     np.broadcast_to(np.sin(lat)[:, None], (len(lat), len(lon)))], -1)
+    unit = np.concatenate([ring.reshape(-1, 3), [[0, 0, -1], [0, 0, 1]]])
+    return centre + (BALL_REACH * radius) * unit
 
 
 def tubes_of(pipes):
@@ -598,24 +945,46 @@ def _end_radius(pipe, sign):
     return float(pipe.radii[0 if sign < 0 else -1])
 
 
-def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
+def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None):
     """Lay out the pipes (``tubes``' groups, in order) in ``surface``: their rings, side
-    faces and the requested caps (see :meth:`Pipe.surface`).
+    faces, ball joints and the requested caps (see :meth:`Pipe.surface`).
 
-    Returns the vertex index of each pipe's first and last ring (its own, not a cap's).
+    ``windows`` (per pipe ``(first, last)``, or None for all of it) lays out only the
+    segments ``first..last`` of a pipe (around a closed one they may wrap, ``last <
+    first``): the same rings, joints and caps, closed by a flat fan on the ring where the
+    window cuts the tube. The clean pieces of a swept solid are built here, as the
+    whole pipe is, so no piece can miss a joint or a cap.
+
+    Returns the vertex index of each pipe's first and last ring laid out (its own, not a
+    cap's).
     """
     groups, sides = tubes.groups, tubes.sides
-    firsts, lasts = groups.first.tolist(), groups.last.tolist()
-    runs = [tubes.axes[a:b + 1] for a, b in zip(firsts, lasts)]
-    # caps: at most the two ends of a chain, or a lone pipe's
-    capped = [g for g, pipe in enumerate(pipes)
-              if (cap_start[g] or cap_end[g]) and not pipe.closed]
+    runs, rolls, rows_of, closed, ends = [], [], [], [], []
+    for g, pipe in enumerate(pipes):
+        first, last = int(groups.first[g]), int(groups.last[g])
+        window = None if windows is None else windows[g]
+        if window is None:
+            rows = np.arange(first, last + 1)
+        else:
+            count = last - first + 1
+            a, b = window
+            rows = first + (a + np.arange((b - a) % (count if pipe.closed else count - 1)
+                                          + 2)) % count
+        axes, roll = _window_axes(tubes, rows, int(tubes.seam_shift[g]), pipe.sides)
+        runs.append(axes)
+        rolls.append(roll)
+        rows_of.append(rows)
+        closed.append(pipe.closed and window is None)
+        ends.append((not pipe.closed and rows[0] == first, not pipe.closed and rows[-1] == last))
+    # caps: at most the two ends of a chain, or a lone pipe's; a cut end is a flat fan
+    capped = [g for g in range(len(pipes)) if (cap_start[g] or cap_end[g]) and not closed[g]]
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
     for g in capped:
-        pipe = pipes[g]
-        styles = pipe.cap_styles
-        start = cap_axes(tubes, firsts[g], -1, pipe, styles[0]) if cap_start[g] else None
-        end = cap_axes(tubes, lasts[g], +1, pipe, styles[1]) if cap_end[g] else None
+        pipe, (at_start, at_end) = pipes[g], ends[g]
+        styles, rows = pipe.cap_styles, rows_of[g]
+        start = cap_axes(tubes, rows[0], -1, pipe, styles[0]) \
+            if cap_start[g] and at_start else None
+        end = cap_axes(tubes, rows[-1], +1, pipe, styles[1]) if cap_end[g] and at_end else None
         if start is not None or end is not None:
             run = runs[g]
             runs[g] = np.concatenate([run[:0] if start is None else start[0][::-1], run,
@@ -624,21 +993,26 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
         caps[g] = (start, end)
     jointed = {}
     for g, pipe in enumerate(pipes):
-        rows = firsts[g] + np.flatnonzero(joint_rows_of(tubes, firsts[g], lasts[g], pipe))
-        if rows.size:
-            jointed[g] = {int(r - firsts[g] + rings_before[g]): int(r) for r in rows}
+        first, rows = int(groups.first[g]), rows_of[g]
+        mask = joint_rows_of(tubes, first, int(groups.last[g]), pipe)[rows - first]
+        if not closed[g]:                          # a cut or an end is a plain ring
+            mask[[0, -1]] = False
+        at = np.flatnonzero(mask)
+        if at.size:
+            jointed[g] = {int(k + rings_before[g]): (int(rows[k]), int(rolls[g][k]))
+                          for k in at.tolist()}
     plain = [g for g in range(len(pipes)) if g not in jointed]
     row_start = [None] * len(pipes)
     if plain:
         starts = surface.add_rings([runs[g] for g in plain], sides[plain],
                                    None if parts is None else np.asarray(parts)[plain],
-                                   closed=groups.closed[plain],
+                                   closed=np.asarray(closed)[plain],
                                    seam_shift=tubes.seam_shift[plain])
         for g, start in zip(plain, starts.tolist()):
             row_start[g] = start + int(sides[g]) * np.arange(len(runs[g]))
     for g, rows in jointed.items():
-        row_start[g] = _add_jointed_run(surface, tubes, pipes[g], runs[g], rows,
-                                        bool(groups.closed[g]), int(tubes.seam_shift[g]),
+        row_start[g] = _add_jointed_run(surface, tubes, pipes[g], runs[g], rows, closed[g],
+                                        int(tubes.seam_shift[g]),
                                         None if parts is None else int(parts[g]))
     for g in capped:
         n, part = int(sides[g]), None if parts is None else int(parts[g])
@@ -651,9 +1025,26 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None):
                 1, lambda out, pole=cap[1]: np.copyto(out[0], pole))
             surface.add_faces(n if apex is not None else n - 2, partial(
                 write_fan, ring, n, apex, at_end), part)
-    own = [rs[b:b + int(c)] for rs, b, c in zip(row_start, rings_before.tolist(),
-                                                 groups.counts.tolist())]
+    own = [rs[b:b + len(r)] for rs, b, r in zip(row_start, rings_before.tolist(), rows_of)]
     return np.array([o[0] for o in own]), np.array([o[-1] for o in own])
+
+
+def _window_axes(tubes, rows, shift, sides):
+    """(K, 3, 3) ring axes at tube ``rows`` of one pipe and (K,) the vertex roll of each:
+    rings past a closed pipe's seam are turned by its seam ``shift`` (their vertex k is
+    the ring's vertex k + shift), so they continue the rings before the seam."""
+    axes = tubes.axes[rows]
+    roll = np.zeros(len(rows), np.int64)
+    past = np.flatnonzero(np.diff(rows) < 0)
+    if past.size:
+        after = slice(int(past[0]) + 1, None)
+        alpha = 2 * np.pi * shift / sides
+        axes = axes.copy()
+        a0, a1 = axes[after, 0].copy(), axes[after, 1].copy()
+        axes[after, 0] = np.cos(alpha) * a0 + np.sin(alpha) * a1
+        axes[after, 1] = np.cos(alpha) * a1 - np.sin(alpha) * a0
+        roll[after] = shift
+    return axes, roll
 
 # -- ball joints (corners="round") -------------------------------------------------
 def joint_rows_of(tubes, first, last, pipe):
@@ -714,7 +1105,8 @@ def _joint(tubes, row, pipe):
 
 def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
     """Lay out a run of rings (axes, as :meth:`Surface.add_rings` takes them) whose
-    ``rows`` (index in ``run`` -> tube row) get ball joints: every ring a row of vertex
+    ``rows`` (index in ``run`` -> tube row and vertex roll, see :func:`_window_axes`) get
+    ball joints: every ring a row of vertex
     indices (a joint's inner vertices shared by its rings), faces between every two
     rows as for plain rings, those made degenerate by a shared vertex dropped.
 
@@ -725,7 +1117,9 @@ def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
     blocks, table, row_start, count = [], [], np.empty(len(run), np.int64), 0
     for r, axes in enumerate(run):
         if r in rows:
-            outer, rings = _joint(tubes, rows[r], pipe)
+            row, roll = rows[r]
+            outer, rings = _joint(tubes, row, pipe)
+            outer, rings = np.roll(outer, -roll), np.roll(rings, -roll, axis=1)
             extra = rings[1:, outer].reshape(-1, 3)
             ids = np.empty((len(rings), n), np.int64)
             ids[:] = first + count + np.arange(n)

@@ -99,7 +99,17 @@ class Tubes:
         product."""
         return np.matmul(ring_basis(sides), self.axes[rows])
 
+    def folds(self, first_only=False):
+        """Per tube, its :class:`~cadpipe.geometry.clearance.Folds` (see
+        :func:`cadpipe.geometry.clearance.tube_folds`); the full answer is kept."""
+        if "_folds" in self.__dict__:
+            return self.__dict__["_folds"]
+        folds = clearance.tube_folds(self, first_only=first_only)
+        if not first_only:
+            self.__dict__["_folds"] = folds
+        return folds
+
     def self_intersection_findings(self):
         """Per tube, a list of findings where it would cut through itself (see
         :mod:`cadpipe.geometry.clearance`)."""
-        return clearance.tube_self_intersections(self)
+        return [list(f.messages) for f in self.folds()]
