@@ -32,7 +32,7 @@ import cadpipe
 from cadpipe.io.files import export, load_mesh
 from cadpipe.solids.validity import check_mesh
 
-FORMATS = ("stl", "3mf", "glb", "obj", "ply", "usdc", "usdz")
+FORMATS = ("stl", "3mf", "obj", "ply", "glb", "usda", "usdc", "usdz")
 
 
 def wavy_pipe(points, sides):
@@ -85,8 +85,8 @@ def speed(runs, points):
         rows.append(("load STL", t["cadpipe"], "trimesh.load", t["trimesh"]))
         for suffix in ("glb", "usdc"):
             target = FilePath(folder) / f"pipe.{suffix}"
-            t = interleaved(runs, normals=lambda: export(fresh, target),
-                            plain=lambda: export(fresh, target, normals=False))
+            t = interleaved(runs, normals=lambda target=target: export(fresh, target),
+                            plain=lambda target=target: export(fresh, target, normals=False))
             rows.append((f"write {suffix} with normals", t["normals"], "without", t["plain"]))
     print(f"{'what':28s} {'cadpipe s':>10s}  {'peer':14s} {'peer s':>8s} {'ratio':>6s}")
     for what, ours, peer, theirs in rows:

@@ -71,20 +71,19 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normal
         if normals:
             vertices, faces, shading = split_for_normals(painted.mesh, crease_angle)
         else:
-            vertices, faces = painted.mesh.vertices, painted.mesh.faces
+            vertices = painted.mesh.vertices.astype(np.float32)
+            faces = painted.mesh.faces.astype(np.uint32)
         name = unique_name(part.name, node_names)
-        attributes = {"POSITION": doc.accessor(vertices.astype(np.float32), "VEC3",
-                                               _ARRAY_BUFFER, bounds=True)}
+        attributes = {"POSITION": doc.accessor(vertices, "VEC3", _ARRAY_BUFFER, bounds=True)}
         if normals:
-            attributes["NORMAL"] = doc.accessor(shading.astype(np.float32), "VEC3",
-                                                _ARRAY_BUFFER)
+            attributes["NORMAL"] = doc.accessor(shading, "VEC3", _ARRAY_BUFFER)
         primitives = []
-        for label_group, rgb in _colour_groups(painted):
-            picked = faces[np.isin(painted.labels, label_group)]
+        groups = _colour_groups(painted)
+        for label_group, rgb in groups:
+            picked = faces if len(groups) == 1 else faces[np.isin(painted.labels, label_group)]
             primitives.append({
                 "attributes": attributes,
-                "indices": doc.accessor(picked.astype(np.uint32).ravel(), "SCALAR",
-                                        _ELEMENT_ARRAY_BUFFER),
+                "indices": doc.accessor(picked.ravel(), "SCALAR", _ELEMENT_ARRAY_BUFFER),
                 "material": doc.material(painted.names[label_group[0]], rgb),
                 "mode": 4})
         doc.meshes.append({"name": name, "primitives": primitives})
@@ -191,16 +190,16 @@ def read_glb(path):
         raise MeshError(f"not a binary glTF file ({exc})", file=path) from None
     if magic != b"glTF" or json_kind != b"JSON":
         raise MeshError("not a binary glTF file (no glTF header)", file=path)
+    to_z_up = np.eye(4)
+    to_z_up[:3, :3] = TO_Y_UP["Z"].T
     try:
-        parts, colors = _gltf_parts(doc, binary)
+        parts, colors = _gltf_parts(doc, binary, to_z_up)
     except (KeyError, IndexError, TypeError, ValueError) as exc:
         raise MeshError(f"malformed glTF ({type(exc).__name__}: {exc})",
                         file=path) from None
-    to_z_up = np.eye(4)
-    to_z_up[:3, :3] = TO_Y_UP["Z"].T
     taken, scene_parts = set(), []
     for name, vertices, faces, labels, names in parts:
-        mesh = file_mesh(vertices @ to_z_up[:3, :3].T, faces, path, name, face_part=labels,
+        mesh = file_mesh(vertices, faces, path, name, face_part=labels,
                          part_names=names, attributes={"source": str(path), "units": "m"})
         scene_parts.append(ScenePart(unique_name(name, taken), mesh))
     if not scene_parts:
@@ -209,12 +208,13 @@ def read_glb(path):
                  colors=MappingProxyType(colors))
 
 
-def _gltf_parts(doc, binary):
-    """[(name, vertices, faces, labels, label names)] and {label name: rgb} of a glTF doc."""
+def _gltf_parts(doc, binary, root):
+    """[(name, vertices, faces, labels, label names)] and {label name: rgb} of a glTF doc,
+    the vertices placed by ``root`` (4, 4) times each node's world matrix."""
     nodes, meshes = doc.get("nodes", []), doc.get("meshes", [])
     scene = doc.get("scenes", [{"nodes": list(range(len(nodes)))}])[doc.get("scene", 0)]
     parts, colors = [], {}
-    stack = [(i, np.eye(4)) for i in reversed(scene.get("nodes", []))]
+    stack = [(i, root) for i in reversed(scene.get("nodes", []))]
     while stack:                             # depth first, in the file's order
         index, parent = stack.pop()
         node = nodes[index]

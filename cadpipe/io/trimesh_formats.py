@@ -16,6 +16,7 @@ Numbers are float32 with 9 significant digits written as an integer mantissa
 and exponent (:func:`cadpipe.io.text.float32_decimal`).
 """
 
+from functools import partial
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -24,7 +25,7 @@ from cadpipe.errors import MeshError
 from cadpipe.io.files import atomic_path, file_mesh, unique_name
 from cadpipe.io.flatten import flatten, labelled
 from cadpipe.io.scene import as_scene
-from cadpipe.io.text import ascii_rows, float32_decimal
+from cadpipe.io.text import ascii_rows, float32_columns
 
 _OBJ_VERTEX = (b"v ", 0, b"e", 1, b" ", 2, b"e", 3, b" ", 4, b"e", 5, b"\n")
 _OBJ_FACE = (b"f ", 0, b" ", 1, b" ", 2, b"\n")
@@ -51,16 +52,19 @@ def write_obj(obj, path, *, units="m"):
             painted = labelled(scene, part, world=True, scale=scale)
             mesh = painted.mesh
             fh.write(f"o {_obj_name(part.name)}\n".encode())
-            _write_rows(fh, _OBJ_VERTEX, mesh.vertices, _decimal)
-            order = np.argsort(painted.labels, kind="stable")
-            starts = np.searchsorted(painted.labels[order], np.arange(len(painted.names) + 1))
-            for label, name in enumerate(painted.names):
-                faces = mesh.faces[order[starts[label]:starts[label + 1]]]
-                if len(faces) == 0:
-                    continue
-                if len(painted.names) > 1:
+            _write_rows(fh, _OBJ_VERTEX, mesh.vertices, float32_columns)
+            if len(painted.names) == 1:
+                _write_rows(fh, _OBJ_FACE, mesh.faces, partial(np.add, offset))
+            else:        # a group per label: its faces gathered a block at a time
+                order = np.argsort(painted.labels, kind="stable")
+                starts = np.searchsorted(painted.labels[order],
+                                         np.arange(len(painted.names) + 1))
+                for label, name in enumerate(painted.names):
+                    if starts[label] == starts[label + 1]:
+                        continue
                     fh.write(f"g {_obj_name(name)}\n".encode())
-                _write_rows(fh, _OBJ_FACE, faces + offset)
+                    _write_rows(fh, _OBJ_FACE, order[starts[label]:starts[label + 1]],
+                                partial(_faces_from, mesh.faces, offset))
             offset += len(mesh.vertices)
 
 
@@ -97,7 +101,7 @@ def write_ply(obj, path, *, ascii=False, units="m"):
         fh.write(header.encode())
         if ascii:
             _write_rows(fh, _PLY_VERTEX, np.column_stack([vertices, vertex_label]),
-                        lambda rows: np.column_stack([_decimal(rows[:, :3]),
+                        lambda rows: np.column_stack([float32_columns(rows[:, :3]),
                                                       rgb[rows[:, 3].astype(np.int64)]]))
             _write_rows(fh, _PLY_FACE, np.column_stack([faces, rgb[painted.labels]]))
             return
@@ -116,10 +120,9 @@ def write_ply(obj, path, *, ascii=False, units="m"):
             fh.write(block.tobytes())
 
 
-def _decimal(vertices):
-    """(V, 6) int64: mantissa and exponent of x, y and z (see :func:`float32_decimal`)."""
-    mantissa, exponent = float32_decimal(vertices)
-    return np.stack([mantissa, exponent], axis=2).reshape(-1, 6)
+def _faces_from(faces, offset, rows):
+    """Rows ``rows`` of ``faces``, numbered from ``offset`` (OBJ counts from 1 across parts)."""
+    return faces[rows] + offset
 
 
 def _write_rows(fh, template, table, prepare=None):

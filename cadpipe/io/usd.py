@@ -138,38 +138,44 @@ def _matrix(transform):
 
 
 def _define_mesh(stage, prim_path, painted, crease_angle):
+    """The Mesh prim of ``painted``. Each array goes into a ``Vt`` array (a copy, which
+    the layer then shares) as soon as it is made, so the numpy form of at most one
+    array is alive beside the layer's."""
     from pxr import Sdf, UsdGeom, Vt
 
     mesh, colors = painted.mesh, painted.colors
-    points = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+    points = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(mesh.vertices, dtype=np.float32))
     counts = Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32))
     indices = Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel())
     valid, why = UsdGeom.Mesh.ValidateTopology(indices, counts, len(points))
     if not valid:
         raise MeshError(f"{prim_path}: invalid mesh topology for USD ({why})")
     geom = UsdGeom.Mesh.Define(stage, prim_path)
-    geom.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    geom.CreatePointsAttr(points)
     geom.CreateFaceVertexCountsAttr(counts)
     geom.CreateFaceVertexIndicesAttr(indices)
-    geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(np.stack([points.min(0), points.max(0)])))
+    del points, counts, indices
+    bounds = np.stack([mesh.vertices.min(0), mesh.vertices.max(0)]).astype(np.float32)
+    geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(bounds))
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
     shading = None if crease_angle is None else shading_normals(mesh, crease_angle)
     if shading is not None and shading.per_vertex:
-        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
+        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals))
         geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     elif shading is not None:   # creases: indexed (a normal per vertex plus a few per crease)
         primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
             "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
-        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
-        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32)))
+        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals))
+        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32,
+                                                                              copy=False)))
     if len(colors) == 1:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
         display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)))
     else:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform)
-        display.Set(Vt.Vec3fArray.FromNumpy(colors[painted.labels].astype(np.float32)))
+        display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)[painted.labels]))
     return geom
 
 
