@@ -80,10 +80,12 @@ def shading_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
 def _shading(mesh, angle):
     vertices = np.ascontiguousarray(mesh.vertices, np.float64)
     faces = np.ascontiguousarray(mesh.faces)
-    vertex_normals = _vertex_normals(vertices, faces)
+    vertex_normals = np.zeros((len(vertices), 3))
+    _vertex_normals(vertices, faces, vertex_normals)
     # a vertex is smooth when every face around it is within half the angle of its
     # normal: then any two of those faces are within the full angle of each other
-    on_crease = _on_crease(vertices, faces, vertex_normals, np.cos(np.radians(angle / 2)))
+    on_crease = np.zeros(len(vertices), bool)
+    _on_crease(vertices, faces, vertex_normals, np.cos(np.radians(angle / 2)), on_crease)
     normals = vertex_normals.astype(np.float32)
     if not on_crease.any():
         none = np.empty(0, np.int64)
@@ -99,6 +101,21 @@ def _shading(mesh, angle):
 
 
 @_jit
+def _face_normal(vertices, faces, f):
+    """Unit normal of face ``f`` (zero if degenerate) and twice its area."""
+    i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
+    ax, ay, az = (vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1],
+                  vertices[j, 2] - vertices[i, 2])            # corner 0 -> 1
+    cx, cy, cz = (vertices[i, 0] - vertices[k, 0], vertices[i, 1] - vertices[k, 1],
+                  vertices[i, 2] - vertices[k, 2])            # corner 2 -> 0
+    nx, ny, nz = -(ay * cz - az * cy), -(az * cx - ax * cz), -(ax * cy - ay * cx)
+    twice_area = np.sqrt(nx * nx + ny * ny + nz * nz)
+    if twice_area > 0:
+        return nx / twice_area, ny / twice_area, nz / twice_area, twice_area
+    return 0.0, 0.0, 0.0, 0.0
+
+
+@_jit
 def _face(vertices, faces, f):
     """Unit normal (zero if degenerate) and the three corner angles of face ``f``:
     ``(nx, ny, nz, angle0, angle1, angle2)``.
@@ -108,24 +125,15 @@ def _face(vertices, faces, f):
     radial normal whichever way its quads were split. Every corner's edge cross
     product has the length ``2 * area``, so only the dot products differ.
     """
+    nx, ny, nz, twice_area = _face_normal(vertices, faces, f)
     i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
-    # edges a: corner 0 -> 1, b: 1 -> 2, c: 2 -> 0
-    ax, ay, az = (vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1],
-                  vertices[j, 2] - vertices[i, 2])
-    bx, by, bz = (vertices[k, 0] - vertices[j, 0], vertices[k, 1] - vertices[j, 1],
-                  vertices[k, 2] - vertices[j, 2])
-    cx, cy, cz = (vertices[i, 0] - vertices[k, 0], vertices[i, 1] - vertices[k, 1],
-                  vertices[i, 2] - vertices[k, 2])
-    nx, ny, nz = -(ay * cz - az * cy), -(az * cx - ax * cz), -(ax * cy - ay * cx)
-    twice_area = np.sqrt(nx * nx + ny * ny + nz * nz)
-    if twice_area > 0:
-        nx, ny, nz = nx / twice_area, ny / twice_area, nz / twice_area
-    else:
-        nx, ny, nz = 0.0, 0.0, 0.0
     # the angle at a corner: between the edge leaving it and the one arriving, reversed
     # (the three sum to pi: two arctangents do; a degenerate face weighs nothing)
-    angle0 = _angle(twice_area, -(ax * cx + ay * cy + az * cz))
-    angle1 = _angle(twice_area, -(bx * ax + by * ay + bz * az))
+    dot0, dot1 = 0.0, 0.0
+    for c in range(3):
+        dot0 += (vertices[j, c] - vertices[i, c]) * (vertices[k, c] - vertices[i, c])
+        dot1 += (vertices[k, c] - vertices[j, c]) * (vertices[i, c] - vertices[j, c])
+    angle0, angle1 = _angle(twice_area, dot0), _angle(twice_area, dot1)
     return nx, ny, nz, angle0, angle1, np.pi - angle0 - angle1
 
 
@@ -151,9 +159,9 @@ def _angle(y, x):
 
 
 @_jit
-def _vertex_normals(vertices, faces):
-    """(V, 3) float64 unit angle-weighted normals of the vertices (zero if unused)."""
-    summed = np.zeros((len(vertices), 3))
+def _vertex_normals(vertices, faces, summed):
+    """Fill ``summed`` (V, 3) float64 zeros with the unit angle-weighted normals of the
+    vertices (zero where unused)."""
     for f in range(len(faces)):
         nx, ny, nz, a0, a1, a2 = _face(vertices, faces, f)
         for k in range(3):
@@ -167,21 +175,19 @@ def _vertex_normals(vertices, faces):
         if length > 0:
             for c in range(3):
                 summed[v, c] /= length
-    return summed
 
 
 @_jit
-def _on_crease(vertices, faces, vertex_normals, cos_half):
-    """(V,) bool: some face at the vertex is more than half the angle off its normal."""
-    crease = np.zeros(len(vertices), np.bool_)
+def _on_crease(vertices, faces, vertex_normals, cos_half, crease):
+    """Set ``crease`` (V,) where some face at the vertex is more than half the angle off
+    its normal."""
     for f in range(len(faces)):
-        nx, ny, nz, _, _, _ = _face(vertices, faces, f)
+        nx, ny, nz, _ = _face_normal(vertices, faces, f)
         for k in range(3):
             v = faces[f, k]
             if (nx * vertex_normals[v, 0] + ny * vertex_normals[v, 1]
                     + nz * vertex_normals[v, 2]) < cos_half:
                 crease[v] = True
-    return crease
 
 
 @_jit
@@ -255,36 +261,46 @@ def split_for_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
                   vertex[first], shading.rows[first])
 
 
-@_jit
 def _split(vertices, faces, normals, corners, pair, pair_vertex, pair_normal):
-    """The split mesh, written straight into glTF's types: ``corners`` move to the
-    new vertex of their ``pair`` (vertex ``pair_vertex``, normal ``pair_normal``),
-    and the old vertices no corner uses any more are dropped (the rest renumbered
-    in order)."""
-    n_old = len(vertices)
+    """The split mesh, written straight into glTF's types. ``corners`` move to their
+    ``pair`` (vertex ``pair_vertex`` with normal ``pair_normal``): the first pair of a
+    vertex takes the vertex's own slot, unless a corner there keeps the vertex
+    normal (a degenerate face's); every other pair is a new vertex at the end.
+    (Outputs are allocated by numpy, which asks the kernel for huge pages: fresh
+    memory the kernels allocate costs more in page faults than their work.)"""
     out = np.empty((len(faces), 3), np.uint32)
-    flat = out.reshape(-1)
-    for c in range(flat.size):
-        flat[c] = faces[c // 3, c % 3]
-    for i in range(len(corners)):
-        flat[corners[i]] = n_old + pair[i]
-    used = np.zeros(n_old + len(pair_vertex), np.bool_)
-    for c in range(flat.size):
-        used[flat[c]] = True
-    renumber = np.empty(len(used), np.uint32)
-    count = 0
-    for v in range(len(used)):
-        renumber[v] = count
-        count += used[v]
-    for c in range(flat.size):
-        flat[c] = renumber[flat[c]]
-    points = np.empty((count, 3), np.float32)
-    shading = np.empty((count, 3), np.float32)
-    for v in range(len(used)):
-        if used[v]:
-            source = v if v < n_old else pair_vertex[v - n_old]
-            row = v if v < n_old else pair_normal[v - n_old]
-            for axis in range(3):
-                points[renumber[v], axis] = vertices[source, axis]
-                shading[renumber[v], axis] = normals[row, axis]
+    target = np.empty(len(pair_vertex), np.int64)
+    count = _split_faces(faces, len(vertices), corners, pair, pair_vertex, out, target,
+                         np.zeros(3 * len(faces), bool), np.zeros(len(vertices), bool))
+    points, shading = np.empty((count, 3), np.float32), np.empty((count, 3), np.float32)
+    points[:len(vertices)] = vertices
+    shading[:len(vertices)] = normals[:len(vertices)]
+    points[target] = vertices[pair_vertex]
+    shading[target] = normals[pair_normal]
     return points, out, shading
+
+
+@_jit
+def _split_faces(faces, n_old, corners, pair, pair_vertex, out, target, moved, keeps):
+    """Fill ``out`` (F, 3) with ``faces`` and each pair's ``target`` vertex; the count
+    of vertices. ``moved`` (3F,) and ``keeps`` (V,) are zeroed scratch."""
+    for i in range(len(corners)):
+        moved[corners[i]] = True
+    for f in range(len(faces)):
+        for k in range(3):
+            v = faces[f, k]
+            out[f, k] = v
+            if not moved[3 * f + k]:
+                keeps[v] = True                      # a corner there keeps the vertex
+    count = n_old
+    for p in range(len(pair_vertex)):                # pairs come in first-seen order
+        v = pair_vertex[p]
+        if keeps[v]:
+            target[p] = count
+            count += 1
+        else:
+            target[p] = v
+            keeps[v] = True                          # later pairs of v are copies
+    for i in range(len(corners)):
+        out[corners[i] // 3, corners[i] % 3] = target[pair[i]]
+    return count

@@ -290,7 +290,7 @@ def read_usd(path):
         indices = np.asarray(geom.GetFaceVertexIndicesAttr().Get() or [], dtype=np.int64)
         if len(counts) == 0 or counts.sum() != len(indices) or (counts < 3).any():
             continue
-        faces, polygon = _fan(counts, indices)
+        faces, polygon = fan_triangles(counts, indices)
         world = np.array(geom.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
         vertices = (points @ world[:3, :3].T + world[:3, 3]) @ (turn * scale).T
         if np.linalg.det(world[:3, :3]) < 0:
@@ -313,8 +313,23 @@ def read_usd(path):
                  colors=MappingProxyType(colors))
 
 
-def _fan(counts, indices):
-    """Polygons as fans of triangles: (T, 3) corner indices and the polygon of each."""
+def fan_triangles(counts, indices):
+    """Polygons as fans of triangles.
+
+    Parameters
+    ----------
+    counts : (P,) int array
+        Corners of each polygon (at least 3).
+    indices : (sum(counts),) int array
+        The polygons' corners, one polygon after the other.
+
+    Returns
+    -------
+    triangles : (T, 3) int array
+        Corner indices, ``counts - 2`` triangles per polygon.
+    polygon : (T,) int array
+        The polygon each triangle came from.
+    """
     polygon = np.repeat(np.arange(len(counts)), counts - 2)
     first = np.concatenate([[0], np.cumsum(counts)[:-1]])[polygon]
     k = np.arange(len(polygon)) - np.repeat(np.cumsum(counts - 2) - (counts - 2), counts - 2)
