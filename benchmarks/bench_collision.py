@@ -34,7 +34,6 @@ Run: .venv/bin/python benchmarks/bench_collision.py [--configs N] [--repeat R]
 """
 
 import argparse
-import time
 from pathlib import Path as FilePath
 
 import fcl
@@ -46,19 +45,7 @@ from cadpipe import CollisionWorld, Mesh, Path, Pipe
 from cadpipe.collision import Box, Joint, Robot
 from cadpipe.collision.bodies import as_body
 
-
-def interleaved(runs, repeat):
-    """Median seconds of each of ``runs`` (name -> callable), timed A B A B ... after
-    one untimed round (caches, lazily built trees, JIT compilation); and each run's
-    last result."""
-    results = {name: run() for name, run in runs.items()}
-    times = {name: [] for name in runs}
-    for _ in range(repeat):
-        for name, run in runs.items():
-            start = time.perf_counter()
-            results[name] = run()
-            times[name].append(time.perf_counter() - start)
-    return {name: float(np.median(t)) for name, t in times.items()}, results
+from _common import FclLoop, fcl_object, interleaved, obstacle_mesh
 
 
 def arm():
@@ -167,8 +154,8 @@ def pipe_pair(poses, repeat):
     mixed = CollisionWorld()
     mixed.add("mesh", block)
     mixed.add("b", b)
-    objects = [_fcl_object(p.mesh()) for p in (a, b)]
-    mesh_object = _fcl_object(block)
+    objects = [fcl_object(p.mesh()) for p in (a, b)]
+    mesh_object = fcl_object(block)
     rng = np.random.default_rng(1)
     moves = np.tile(np.eye(4), (poses, 1, 1))
     moves[:, :3, :3] = Rotation.random(poses, random_state=rng).as_matrix()
@@ -265,43 +252,6 @@ def panda_cell():
     return robot, lower, upper, obstacles
 
 
-def _fcl_object(mesh):
-    bvh = fcl.BVHModel()
-    bvh.beginModel(len(mesh.vertices), len(mesh.faces))
-    bvh.addSubModel(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64))
-    bvh.endModel()
-    return fcl.CollisionObject(bvh, fcl.Transform())
-
-
-def _obstacle_mesh(obj):
-    return obj.mesh() if isinstance(obj, Pipe) else as_body(obj, "x").mesh
-
-
-class FclLoop:
-    """The python-fcl loop a user writes (issue 11): FK, then the robot's pairs (self
-    pairs not allowed, links against obstacles) until the first hit."""
-
-    def __init__(self, robot, obstacles, allowed):
-        self.robot, self.links = robot, list(robot.link_meshes)
-        self.objects = {n: _fcl_object(m) for n, m in robot.link_meshes.items()}
-        for name, (obj, pose) in obstacles.items():
-            self.objects[name] = o = _fcl_object(_obstacle_mesh(obj))
-            o.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
-        names = self.links + list(obstacles)
-        self.pairs = [(self.objects[a], self.objects[b]) for i, a in enumerate(names)
-                      for b in names[i + 1:] if frozenset((a, b)) not in allowed
-                      and (a in robot.link_meshes or b in robot.link_meshes)]
-        self.request = fcl.CollisionRequest()
-
-    def __call__(self, q):
-        for link, pose in zip(self.links, self.robot.link_pose_array(q)[0]):
-            self.objects[link].setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
-        for a, b in self.pairs:
-            if fcl.collide(a, b, self.request, fcl.CollisionResult()):
-                return True
-        return False
-
-
 class CoalLoop(FclLoop):
     """The same loop through coal (hpp-fcl's successor)."""
 
@@ -321,7 +271,7 @@ class CoalLoop(FclLoop):
         self.models = {n: model(m) for n, m in robot.link_meshes.items()}
         self.poses = {}
         for name, (obj, pose) in obstacles.items():
-            self.models[name] = model(_obstacle_mesh(obj))
+            self.models[name] = model(obstacle_mesh(obj))
             self.poses[name] = coal.Transform3s(pose[:3, :3], pose[:3, 3])
         names = self.links + list(obstacles)
         self.pairs = [(a, b) for i, a in enumerate(names) for b in names[i + 1:]
@@ -366,7 +316,7 @@ class Bullet:
         self.joints = [joints[n] for n in robot.actuated]
         self.mimic = joints["panda_finger_joint2"], robot.actuated.index("panda_finger_joint1")
         for obj, pose in obstacles.values():
-            mesh = _obstacle_mesh(obj)
+            mesh = obstacle_mesh(obj)
             shape = pb.createCollisionShape(
                 pb.GEOM_MESH, vertices=np.asarray(mesh.vertices).tolist(),
                 indices=np.asarray(mesh.faces).ravel().tolist(),

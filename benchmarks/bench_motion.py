@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / "examples"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import plan_panda  # noqa: E402
-from bench_collision import FclLoop, interleaved  # noqa: E402
+from _common import FclLoop, interleaved  # noqa: E402
 
 from cadpipe import Path, Pipe  # noqa: E402
 from cadpipe.collision import Robot  # noqa: E402
@@ -217,15 +217,15 @@ def part_fixture(repeat):
         trimesh.Trimesh(pipe.mesh().vertices, pipe.mesh().faces)
     print(f"Part 3: fixture queries, 500,000 points, 300-point helix pipe; medians of {repeat}")
     for label, points in (("near the pipe", near), ("in its bounding box", box)):
-        runs = {"cadpipe": lambda: locate(pipe, points),
-                "kdtree": lambda: kdtree_baseline(tree, a, b, points, radius)}
+        runs = {"cadpipe": lambda points=points: locate(pipe, points),
+                "kdtree": lambda points=points: kdtree_baseline(tree, a, b, points, radius)}
         seconds, results = interleaved(runs, repeat)
         wrong = np.abs(results["kdtree"] - results["cadpipe"].signed_distance) > 1e-9
+        rate = {name: len(points) / s for name, s in seconds.items()}
         print(f"  {label}:")
-        print(f"    cadpipe locate (5 answers, exact)         {len(points) / seconds['cadpipe']:10.0f}"
-              " points/s")
-        print(f"    KD-tree + projection (distance only)      {len(points) / seconds['kdtree']:10.0f}"
-              f" points/s  wrong distance at {int(wrong.sum())} points")
+        print(f"    cadpipe locate (5 answers, exact)         {rate['cadpipe']:10.0f} points/s")
+        print(f"    KD-tree + projection (distance only)      {rate['kdtree']:10.0f} points/s  "
+              f"wrong distance at {int(wrong.sum())} points")
     sub = near[:2000]
     start = time.perf_counter()
     trimesh.proximity.signed_distance(mesh, sub)

@@ -1,73 +1,118 @@
-"""Pipe building speed: cadpipe vs trimesh's sweep_polygon vs VTK's tube filter (PyVista).
+"""Pipe building speed: cadpipe vs trimesh's sweep_polygon (and VTK's tube filter), alone and
+interleaved in one process.
 
-A helix of 100,000 points, 16 sides, one process. Prints the best of REPEAT runs
-(seconds), output vertices per second, watertightness and ratios.
-Run: .venv/bin/python benchmarks/bench_pipes.py
+Each case is timed three ways, every figure a median over --repeat runs:
+
+- alone: one method's runs back to back, each result dropped before the next (a script
+  that builds one pipe after another);
+- interleaved: A B A B ... in the same process, the peers' work between cadpipe's runs (a
+  program that does other things too: their memory traffic is what cadpipe must live with);
+- kept: interleaved, but every result is kept until the case ends, so no output memory can
+  be reused (sizes up to --keep-up-to points).
+
+Cases: helixes of 1k, 10k, 100k and 1M points (16 sides, radius 0.05) and a long thin
+straight pipe (2 points, length 1000, radius 0.001). Prints wall and CPU seconds (CPU time
+is steadier on a shared machine), each mode's ratio to the alone runs and trimesh / cadpipe.
+
+``--no-recycling`` sets ``cadpipe.geometry.buffers.RETAIN_BYTES = 0``: every output array is
+fresh numpy memory, as before the output blocks were recycled.
+
+Run: .venv/bin/python benchmarks/bench_pipes.py [--repeat 7] [--sizes 1000 10000 ...] [--vtk]
+[--no-recycling]
 """
 
+import argparse
+import os
 import time
 
 import numpy as np
-import pyvista as pv
 import shapely
 import trimesh
 
 import cadpipe
+from cadpipe.geometry import buffers
 
-POINTS, SIDES, RADIUS = 100_000, 16, 0.05
-REPEAT = 5
-
-
-def best_of(func, repeat=REPEAT):
-    best, result = np.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        result = func()
-        best = min(best, time.perf_counter() - start)
-    return best, result
+SIDES, RADIUS = 16, 0.05
+LONG = ("long thin", np.array([[0.0, 0.0, 0.0], [1000.0, 0.0, 0.0]]), 0.001)
 
 
-def watertight(vertices, faces):
-    return cadpipe.Mesh(vertices, faces).is_watertight
+def helix(points):
+    """A helix of 20 turns per 100k points (the pitch of the 100k case at every size)."""
+    t = np.linspace(0, 40 * np.pi * points / 100_000, points)
+    return np.c_[np.cos(t), np.sin(t), 0.5 * t / (2 * np.pi)]
+
+
+def peers(path, radius, vtk):
+    """(name, build) of each method for one path."""
+    angles = np.arange(SIDES) * 2 * np.pi / SIDES
+    polygon = shapely.Polygon(radius * np.c_[np.cos(angles), np.sin(angles)])
+    out = [("cadpipe", lambda: cadpipe.Pipe(path, radius, sides=SIDES).mesh()),
+           ("trimesh", lambda: trimesh.creation.sweep_polygon(polygon, path))]
+    if vtk:
+        import pyvista as pv
+
+        line = pv.lines_from_points(path)
+        out.append(("VTK tube", lambda: line.tube(radius=radius, n_sides=SIDES, capping=True)))
+    return out
+
+
+def timed(build):
+    wall, cpu = time.perf_counter(), time.process_time()
+    result = build()
+    return time.perf_counter() - wall, time.process_time() - cpu, result
+
+
+def run_case(methods, repeat, mode):
+    """{name: (wall, cpu) medians} over ``repeat`` runs, in ``mode``."""
+    times = {name: [] for name, _ in methods}
+    kept = []
+    rounds = [[m] * repeat for m in methods] if mode == "alone" else [methods] * repeat
+    for batch in rounds:
+        for name, build in batch:
+            wall, cpu, result = timed(build)
+            times[name].append((wall, cpu))
+            if mode == "kept":
+                kept.append(result)
+            del result
+    del kept
+    return {name: np.median(t, axis=0) for name, t in times.items()}
 
 
 def main():
-    t = np.linspace(0, 40 * np.pi, POINTS)
-    helix = np.c_[np.cos(t), np.sin(t), 0.5 * t / (2 * np.pi)]
-    rows = []
-
-    sec, mesh = best_of(lambda: cadpipe.Pipe(helix, RADIUS, sides=SIDES).mesh())
-    rows.append(("cadpipe Pipe.mesh()", sec, len(mesh.vertices), mesh.is_watertight))
-
-    polygon = shapely.Polygon(RADIUS * np.c_[np.cos(np.arange(SIDES) * 2 * np.pi / SIDES),
-                                             np.sin(np.arange(SIDES) * 2 * np.pi / SIDES)])
-    sec, tm = best_of(lambda: trimesh.creation.sweep_polygon(polygon, helix))
-    rows.append(("trimesh sweep_polygon", sec, len(tm.vertices), watertight(tm.vertices, tm.faces)))
-
-    line = pv.lines_from_points(helix)
-
-    def vtk_tube():
-        return line.tube(radius=RADIUS, n_sides=SIDES, capping=True)
-
-    sec, raw = best_of(vtk_tube)
-    tri = raw.triangulate()
-    rows.append(("VTK tube (raw)", sec, raw.n_points,
-                 watertight(tri.points, tri.faces.reshape(-1, 4)[:, 1:])))
-
-    def vtk_clean():
-        return vtk_tube().triangulate().clean()
-
-    sec, clean = best_of(vtk_clean)
-    rows.append(("VTK tube + clean()", sec, clean.n_points,
-                 watertight(clean.points, clean.faces.reshape(-1, 4)[:, 1:])))
-
-    ours = rows[0][1]
-    print(f"helix of {POINTS:,} points, {SIDES} sides, radius {RADIUS}; best of {REPEAT} runs")
-    print(f"{'method':24} {'seconds':>9} {'vertices':>10} {'Mvert/s':>8} {'watertight':>10} "
-          f"{'cadpipe faster by':>18}")
-    for name, sec, verts, tight in rows:
-        print(f"{name:24} {sec:9.3f} {verts:10,} {verts / sec / 1e6:8.1f} {str(tight):>10} "
-              f"{sec / ours:17.1f}x")
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument("--sizes", type=int, nargs="*", default=[1000, 10_000, 100_000, 1_000_000])
+    parser.add_argument("--no-long", action="store_true", help="skip the long thin pipe")
+    parser.add_argument("--keep-up-to", type=int, default=100_000)
+    parser.add_argument("--vtk", action="store_true", help="add VTK's tube filter (PyVista)")
+    parser.add_argument("--no-recycling", action="store_true",
+                        help="fresh numpy memory for every output (as before recycling)")
+    args = parser.parse_args()
+    if args.no_recycling:
+        buffers.RETAIN_BYTES = 0
+    cases = [(f"helix {n:,}", helix(n), RADIUS) for n in args.sizes]
+    if not args.no_long:
+        cases.append(LONG)
+    print(f"{SIDES} sides; medians of {args.repeat} runs; output recycling "
+          f"{'off' if args.no_recycling else 'on'}; load average "
+          + " ".join(f"{x:.2f}" for x in os.getloadavg()))
+    print(f"{'case':16} {'mode':12} {'method':9} {'wall s':>8} {'cpu s':>8} "
+          f"{'/ alone: wall':>13} {'cpu':>6} {'trimesh / cadpipe: wall':>23} {'cpu':>6}")
+    for label, path, radius in cases:
+        methods = peers(path, radius, args.vtk)
+        for _, build in methods:                # warm up imports and caches
+            build()
+        modes = ["alone", "interleaved"] + (["kept"] if len(path) <= args.keep_up_to else [])
+        alone = None
+        for mode in modes:
+            result = run_case(methods, args.repeat, mode)
+            alone = alone or result
+            for name, (wall, cpu) in result.items():
+                versus = result["trimesh"] / result[name] if name == "cadpipe" else None
+                print(f"{label:16} {mode:12} {name:9} {wall:8.4f} {cpu:8.4f} "
+                      f"{wall / alone[name][0]:12.2f}x {cpu / alone[name][1]:5.2f}x"
+                      + ("" if versus is None else f" {versus[0]:22.2f}x {versus[1]:5.2f}x"))
+    print("load average after: " + " ".join(f"{x:.2f}" for x in os.getloadavg()))
 
 
 if __name__ == "__main__":

@@ -9,8 +9,11 @@ samples from length / step, bytes an archive expands to) with a budget.
 The budgets are one frozen :class:`Limits` value held in a context variable, so
 every layer reads the same numbers without passing them down: the API sets them
 with :func:`using` (``with cadpipe.limits.using(max_triangles=10**8): ...``), a
-spec with its ``max_triangles`` key, the CLI with ``--max-triangles``. A message
-names the limit and these three ways to raise it.
+spec with a top-level key of the same name (``max_triangles = 100_000_000``), the
+CLI with one flag each (``--max-triangles 100000000``), as slicers and compilers
+take one option per setting. The limits on the spec file itself
+(:data:`READ_LIMITS`) are checked before its keys are read, so only the API and
+the CLI set them. A message names the limit and the ways to raise it.
 """
 
 from __future__ import annotations
@@ -67,9 +70,40 @@ _UNITS = {"max_triangles": "triangles", "max_samples": "path samples", "max_part
           "max_depth": "levels of nesting", "max_number_chars": "digits",
           "max_expansion": "times expansion", "max_unpacked_bytes": "bytes unpacked"}
 
-#: the budgets a spec sets with a key of the same name, and those the CLI sets with a flag
-SPEC_KEYS = ("max_triangles", "max_samples", "max_parts")
-CLI_FLAGS = ("max_triangles",)
+
+
+def _names():
+    return tuple(f.name for f in dataclasses.fields(Limits))
+
+
+#: budgets on reading the spec file itself: checked before its keys can say anything
+READ_LIMITS = ("max_spec_bytes", "max_depth", "max_number_chars")
+#: what each budget bounds, for the CLI's help and the docs
+_HELP = {"max_triangles": "refuse work that would make more triangles than N",
+         "max_samples": "refuse a path sampled at more than N points",
+         "max_parts": "refuse a spec of more than N parts",
+         "max_spec_bytes": "refuse a spec file larger than N bytes",
+         "max_depth": "refuse a spec nesting tables and lists deeper than N",
+         "max_number_chars": "refuse a number in a spec longer than N characters",
+         "max_expansion": "refuse an archive (3MF, USDZ, GLB) expanding more than N times",
+         "max_unpacked_bytes": "refuse an archive or binary file expanding to more than N "
+                               "bytes"}
+
+#: the budgets a spec sets with a top-level key of the same name
+SPEC_KEYS = tuple(n for n in _names() if n not in READ_LIMITS)
+#: the budgets the CLI sets with a flag each (``--max-triangles N``): all of them
+CLI_FLAGS = _names()
+
+
+def flag(name: str) -> str:
+    """The command-line flag of budget ``name``: ``--max-triangles``."""
+    return "--" + name.replace("_", "-")
+
+
+def describe(name: str) -> str:
+    """What budget ``name`` bounds and its default, in a sentence (CLI help, docs)."""
+    default = getattr(Limits(), name)
+    return f"{_HELP[name]} (default {default:,})"
 
 
 def current() -> Limits:
@@ -83,15 +117,8 @@ def using(**budgets):
 
     Values of None keep the budget in force; an unknown name is an error.
     """
-    from cadpipe._validate import as_int
-
     now = current()
-    changes = {}
-    for name, value in budgets.items():
-        if not hasattr(now, name):
-            raise LimitError(f"unknown limit; known: {', '.join(_names())}", key=name)
-        if value is not None:
-            changes[name] = as_int(value, name, low=1, high=2 ** 62)
+    changes = {name: value for name, value in checked(budgets).items() if value is not None}
     token = _CURRENT.set(dataclasses.replace(now, **changes))
     try:
         yield current()
@@ -99,8 +126,25 @@ def using(**budgets):
         _CURRENT.reset(token)
 
 
-def _names():
-    return [f.name for f in dataclasses.fields(Limits)]
+def checked(budgets: dict) -> dict:
+    """``budgets`` ({name: value or None}) validated: known names, positive numbers
+    (whole for counts; ``max_expansion`` may be fractional). Raises
+    :class:`~cadpipe.errors.InputError` with ``key=`` the name."""
+    from cadpipe._validate import as_int, as_positive
+    from cadpipe.errors import InputError
+
+    known = _names()
+    out = {}
+    for name, value in budgets.items():
+        if name not in known:
+            raise InputError(f"unknown limit; known: {', '.join(known)}", key=name)
+        if value is None:
+            out[name] = None
+        elif isinstance(getattr(Limits(), name), float):
+            out[name] = float(as_positive(value, name))
+        else:
+            out[name] = as_int(value, name, low=1, high=2 ** 62)
+    return out
 
 
 def check(name: str, needed: float, what: str, *, at_least: bool = False, **where) -> None:
@@ -114,7 +158,7 @@ def check(name: str, needed: float, what: str, *, at_least: bool = False, **wher
     if not needed <= limit:                       # NaN and inf are over any limit
         ways = [f"cadpipe.limits.using({name}=...)"]
         ways += [f"the spec key {name}"] if name in SPEC_KEYS else []
-        ways += [f"--{name.replace('_', '-')}"] if name in CLI_FLAGS else []
+        ways += [flag(name)] if name in CLI_FLAGS else []
         amount = "more than can be counted" if not needed < 1e30 else \
             f"{'at least' if at_least else 'about'} {needed:,.0f}"
         raise LimitError(f"{what} needs {amount} {_UNITS[name]}, more than the limit of "

@@ -105,9 +105,17 @@ def _subparsers(parser):
     return {}
 
 
-def _options(parser):
-    """The parser's arguments, positionals first, as argparse shows them."""
-    actions = [a for a in parser._actions if not isinstance(a, argparse._SubParsersAction)]
+def _is_limit(action):
+    from cadpipe import limits
+
+    return action.dest in limits.CLI_FLAGS
+
+
+def _options(parser, which=lambda action: not _is_limit(action)):
+    """The parser's arguments, positionals first, as argparse shows them; the limit
+    flags every command shares are listed once (``which=_is_limit``)."""
+    actions = [a for a in parser._actions if not isinstance(a, argparse._SubParsersAction)
+               and which(a)]
     return [a for a in actions if not a.option_strings] + [a for a in actions if a.option_strings]
 
 
@@ -145,9 +153,9 @@ def _usage(prog, parser):
     return " ".join([prog, *map(_usage_word, ordered)])
 
 
-def _table(parser):
+def _table(parser, which=lambda action: not _is_limit(action)):
     rows = ["| argument | value | default | meaning |", "| --- | --- | --- | --- |"]
-    for action in _options(parser):
+    for action in _options(parser, which):
         name = ", ".join(f"`{s}`" for s in action.option_strings) or \
             f"`{action.metavar or action.dest}`"
         meaning = (action.help or "") % {**vars(action), "prog": parser.prog}
@@ -192,11 +200,17 @@ def cli_reference():
     lines += [f"| [`{name}`](#cadpipe-{name}) | {sub.description} |"
               for name, sub in subcommands.items()]
     lines += ["", "Exit codes, the same for every command unless its section says otherwise:",
-              "", *_exit_table(EXIT_CODES), ""]
+              "", *_exit_table(EXIT_CODES), "",
+              "Limits: every command takes one flag per safety limit (docs/spec.md, *Limits*); "
+              "a value given here wins over the spec's key of the same name. Work that would "
+              "exceed a limit is refused before it starts, with a message naming the flag.",
+              "", *_table(next(iter(subcommands.values())), _is_limit), ""]
     for name, sub in subcommands.items():
         extra = COMMANDS[name]
         lines += [f"## cadpipe {name}", "", sub.description, "", extra["about"], "",
-                  "```", _usage(f"cadpipe {name}", sub), "```", "", *_table(sub), ""]
+                  "```", _usage(f"cadpipe {name}", sub), "```", "", *_table(sub), "",
+                  "and the limit flags, each followed by a number (see *Limits* above): " + ", ".join(
+                      f"`{a.option_strings[0]}`" for a in _options(sub, _is_limit)), ""]
         if "exit" in extra:
             lines += [*_exit_table({**EXIT_CODES, **extra["exit"]}), ""]
         lines += ["Examples (from the repository root):", "", "```sh", *extra["examples"],

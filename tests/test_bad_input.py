@@ -12,9 +12,9 @@ import math
 import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
-from typing import Callable
 
 import pytest
 import trimesh

@@ -289,6 +289,29 @@ def test_first_hit_gives_the_same_verdict_and_stops_early():
     assert stopped_early > 10
 
 
+@pytest.mark.parametrize("seed", [13, 14])
+def test_check_path_first_hit_stops_at_the_first_colliding_configuration(seed):
+    world = cell()
+    rng = np.random.default_rng(seed)
+    random = rng.uniform(-2.8, 2.8, (400, 4))
+    free = random[~world.check_path("arm", random).colliding]
+    # 40 free configurations first (more than a first chunk), then random ones
+    q = np.concatenate([free[:40], random[:200]])
+    full = world.check_path("arm", q)
+    quick = world.check_path("arm", q, first_hit=True)
+    first = int(np.argmax(full.colliding))
+    assert full.colliding.any() and first >= 40
+    assert int(np.argmax(quick.colliding)) == first and quick.colliding.sum() == 1
+    for c in range(first + 1):                 # up to the hit, what the full check says
+        assert answers(quick[c]) == answers(full[c])
+    after = quick.decided_by[first + 1:]
+    assert np.all((after == STAGES.index("not checked")) | (after == STAGES.index("allowed")))
+    assert (after == STAGES.index("not checked")).any()
+    quick, full = (world.check_path("arm", free, first_hit=hit) for hit in (True, False))
+    assert len(free) > 40 and not quick.colliding.any()
+    assert [answers(r) for r in quick] == [answers(r) for r in full]
+
+
 def test_only_a_group_leaves_obstacle_pairs_unchecked():
     world = cell()
     world.set_joints("arm", [0.3, 0.2, -0.4, 0.1])

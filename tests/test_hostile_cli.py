@@ -17,7 +17,6 @@ import subprocess
 import sys
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path as FilePath
 
 import pytest
 import trimesh
@@ -49,6 +48,63 @@ def zip_bomb(folder, name="bomb.3mf", claimed=3 << 30):
     return target
 
 
+def glb(folder, name, change=None, tail=b""):
+    """A GLB of a 2,048-triangle sphere, its JSON edited by ``change(doc)``, ``tail``
+    appended (or, as bytes returned by ``change``, the whole JSON chunk replaced)."""
+    import cadpipe
+
+    path = folder / name
+    cadpipe.primitives.sphere(1, segments=64).export(path)
+    data = path.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc, binary = json.loads(data[20:20 + length]), data[20 + length:]
+    edited = change(doc) if change else None
+    text = edited if isinstance(edited, bytes) else json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text + binary + tail
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    return path
+
+
+def _repeat_nodes(doc, times=3000):
+    """Every node of the scene's root points to the sphere: 6 M triangles from 80 KB."""
+    doc["nodes"][0]["children"] = list(range(1, times + 1))
+    doc["nodes"] += [{"mesh": 0} for _ in range(times - 1)]
+
+
+def _cycle(doc):
+    doc["nodes"][1]["children"] = [0]
+
+
+def _shared_child(doc):
+    doc["nodes"].append({"children": [1]})
+    doc["scenes"][0]["nodes"].append(2)
+
+
+def _huge_count(doc):
+    doc["accessors"][2]["count"] = 10 ** 15
+
+
+def _truncated_binary(doc):
+    doc["buffers"][0]["byteLength"] = 1 << 40
+
+
+GLBS = {
+    "glb-nodes-repeat-a-mesh": lambda f: glb(f, "x.glb", _repeat_nodes),
+    "glb-node-cycle": lambda f: glb(f, "x.glb", _cycle),
+    "glb-shared-node": lambda f: glb(f, "x.glb", _shared_child),
+    "glb-accessor-count-1e15": lambda f: glb(f, "x.glb", _huge_count),
+    "glb-buffer-claims-1-tb": lambda f: glb(f, "x.glb", _truncated_binary),
+    "glb-json-nested-100000": lambda f: glb(f, "x.glb", lambda d: b"[" * 100_000 + b"]" * 100_000),
+    "glb-json-int-5000-digits": lambda f: glb(f, "x.glb", lambda d: b'{"scene": ' + b"7" * 5000
+                                              + b"}"),
+    "glb-json-chunk-past-the-end": lambda f: (f / "x.glb").write_bytes(
+        struct.pack("<4sII", b"glTF", 2, 40) + struct.pack("<I4s", 1 << 31, b"JSON") + b"{}  "),
+    "glb-empty": lambda f: (f / "x.glb").write_bytes(b""),
+    "glb-header-only": lambda f: (f / "x.glb").write_bytes(b"glTF\x02\0\0\0"),
+}
+
+
 def huge_obj(folder):
     (folder / "huge.obj").write_text("v 1e308 0 0\nv 0 1e308 0\nv 0 0 1e308\nv 1e308 1e308 1e308\n"
                                      "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n")
@@ -69,13 +125,15 @@ def nested(depth, fmt):
 
 #: (id, argv with {} for the case folder, files: name -> text | callable(folder))
 CASES = [
-    ("output-dotdot", ("build", "{}/spec.toml"), {"spec.toml": 'outputs = ["../victim.obj"]\n' + BOX}),
+    ("output-dotdot", ("build", "{}/spec.toml"),
+     {"spec.toml": 'outputs = ["../victim.obj"]\n' + BOX}),
     ("output-absolute", ("build", "{}/spec.toml"),
      {"spec.toml": lambda f: f'outputs = ["{f.parent / "victim.obj"}"]\n' + BOX}),
     ("output-link-out", ("build", "{}/spec.toml"),
      {"spec.toml": 'outputs = ["link/cadpipe-hostile.stl"]\n' + BOX, "_": links}),
     ("output-nul", ("build", "{}/spec.json"),
-     {"spec.json": json.dumps({"outputs": ["a\u0000.stl"], "parts": [{"kind": "box", "size": 1}]})}),
+     {"spec.json": json.dumps({"outputs": ["a\u0000.stl"],
+                               "parts": [{"kind": "box", "size": 1}]})}),
     ("spline-step-1e-12", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"),
      {"spec.toml": toml_pipe(f"{{points = {LINE}, spline = true, step = 1e-12}}")}),
     ("coordinates-1e308", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"),
@@ -118,6 +176,30 @@ CASES = [
     ("check-zip-bomb-3mf", ("check", "{}/bomb.3mf"), {"_": zip_bomb}),
     ("view-zip-bomb-3mf", ("view", "{}/bomb.3mf", "-o", "{}/out"), {"_": zip_bomb}),
     ("check-obj-1e308", ("check", "{}/huge.obj"), {"_": huge_obj}),
+    *[(f"check-{name}", ("check", "{}/x.glb"), {"_": make}) for name, make in GLBS.items()],
+    ("view-glb-nodes-repeat-a-mesh", ("view", "{}/x.glb", "-o", "{}/out"),
+     {"_": GLBS["glb-nodes-repeat-a-mesh"]}),
+    ("check-zip-bomb-usdz", ("check", "{}/bomb.usdz"),
+     {"_": lambda f: zip_bomb(f, "bomb.usdz")}),
+    *[(f"output-{n}", ("build", "{}/spec.toml"), {"spec.toml": f"outputs = [{o!r}]\n" + BOX})
+      for n, o in [("dot-dotdot", "./../victim.obj"), ("inner-dotdot", "out/../../victim.obj"),
+                   ("unknown-suffix", "x.exe"),
+                   ("no-suffix", "x")]],
+    *[(f"spec-{n}", ("build", "{}/spec.toml", "-o", "{}/out/x.stl"), {"spec.toml": t})
+      for n, t in [("empty", ""), ("garbage", "\x00\x01\x02 = ="), ("unknown-kind",
+                   '[[parts]]\nkind = "blob"\n'), ("kind-number", "[[parts]]\nkind = 5\n"),
+                   ("parts-not-list", "parts = 3\n"), ("sides-2", toml_pipe(str(LINE),
+                   extra="sides = 2\n")), ("sides-1e9", toml_pipe(str(LINE),
+                   extra="sides = 1000000000\n")), ("radius-0", toml_pipe(str(LINE), radius=0)),
+                   ("radius-nan", toml_pipe(str(LINE), radius="nan")),
+                   ("one-point", toml_pipe("[[0, 0, 0]]")), ("units-furlong",
+                   'units = "furlong"\n' + BOX), ("op-explode", BOX + 'op = "explode"\n'),
+                   ("max-parts-0", "max_parts = 0\n" + BOX),
+                   ("max-depth-in-spec", "max_depth = 1000\n" + BOX)]],
+    ("flag-max-triangles-negative", ("build", "{}/spec.toml", "-o", "{}/out/x.stl",
+                                     "--max-triangles", "-5"), {"spec.toml": BOX}),
+    ("flag-max-expansion-nan", ("check", "{}/x.glb", "--max-expansion", "nan"),
+     {"_": GLBS["glb-node-cycle"]}),
     ("collide-depth", ("collide", "{}/spec.json"), {"spec.json": nested(5000, "json")}),
     ("collide-output-escape", ("collide", "{}/spec.toml", "--svg", "{}/out"),
      {"spec.toml": 'outputs = ["../../victim.obj"]\n' + BOX}),

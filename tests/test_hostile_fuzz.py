@@ -157,7 +157,7 @@ def test_pipes(scale):
     for case in range(COUNTS["pipes"] * scale):
         hostile = rng.random() < 0.25
         args = _pipe_args(rng, hostile)
-        tally.run(case, lambda: _pipe(args).mesh(), judge_mesh, not hostile)
+        tally.run(case, lambda args=args: _pipe(args).mesh(), judge_mesh, not hostile)
     tally.check(min_rate=0.5)
 
 
@@ -168,7 +168,7 @@ def test_splices(scale):
         hostile = rng.random() < 0.2
         size, offset = _length_scale(rng)
         start, pipes = offset, []
-        for k in range(int(rng.integers(2, 4))):
+        for _ in range(int(rng.integers(2, 4))):
             step = size * rng.uniform(0.5, 1.0, (int(rng.integers(1, 3)), 3))
             points = np.vstack([start, start + np.cumsum(step, axis=0)])
             pipes.append({"path": points, "radius": size * float(rng.uniform(0.03, 0.1)),
@@ -176,7 +176,8 @@ def test_splices(scale):
             start = points[-1]
         if hostile:
             pipes[int(rng.integers(len(pipes)))] = _pipe_args(rng, True)
-        tally.run(case, lambda: cadpipe.splice(*map(_pipe, pipes)), judge_mesh, not hostile)
+        tally.run(case, lambda pipes=pipes: cadpipe.splice(*map(_pipe, pipes)), judge_mesh,
+                  not hostile)
     tally.check(min_rate=0.5)
 
 
@@ -191,8 +192,8 @@ def test_hollow_parts(scale):
         ends = str(rng.choice(["open", "closed"]))
         if hostile:
             wall = HOSTILE_NUMBERS[int(rng.integers(len(HOSTILE_NUMBERS)))]
-        tally.run(case, lambda: cadpipe.HollowPipe(_pipe(args), wall, ends).mesh(), judge_mesh,
-                  not hostile)
+        tally.run(case, lambda a=args, w=wall, e=ends: cadpipe.HollowPipe(_pipe(a), w, e).mesh(),
+                  judge_mesh, not hostile)
     tally.check(min_rate=0.35)
 
 
@@ -214,7 +215,7 @@ def test_assemblies(scale):
     for case in range(COUNTS["assemblies"] * scale):
         hostile = rng.random() < 0.2
 
-        def make():
+        def make(hostile=hostile):
             asm = cadpipe.Assembly(units="mm")
             for k in range(int(rng.integers(2, 5))):
                 move = np.eye(4)
@@ -278,7 +279,7 @@ def test_mutated_specs(scale, tmp_path):
         spec = base if valid else _mutate(rng, base)
         file = tmp_path / f"s{case % 7}.json"
         file.write_text(json.dumps(spec))
-        tally.run(case, lambda: cadpipe.load(file).union(), judge_mesh, valid)
+        tally.run(case, lambda file=file: cadpipe.load(file).union(), judge_mesh, valid)
     tally.check(min_rate=0.95)
 
 

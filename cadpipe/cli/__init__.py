@@ -33,8 +33,24 @@ def command(name, help, arguments):
 
 
 def budgets(args):
-    """The limits set on the command line, as :func:`cadpipe.io.spec.read` takes them."""
-    return {"max_triangles": getattr(args, "max_triangles", None)}
+    """The limits set on the command line ({name: value}, only those given), as
+    :func:`cadpipe.limits.using` and :func:`cadpipe.io.spec.read` take them."""
+    from cadpipe import limits
+
+    given = {name: getattr(args, name, None) for name in limits.CLI_FLAGS}
+    return {name: value for name, value in given.items() if value is not None}
+
+
+def _limit_flags(parser):
+    """One flag per budget of :mod:`cadpipe.limits` (``--max-triangles N``), as slicers
+    and compilers take one option per setting; a value given wins over the spec's key."""
+    from cadpipe import limits
+
+    group = parser.add_argument_group("limits (see docs/spec.md, Limits)")
+    for name in limits.CLI_FLAGS:
+        number = float if isinstance(getattr(limits.Limits(), name), float) else int
+        group.add_argument(limits.flag(name), type=number, metavar="N",
+                           help=limits.describe(name))
 
 
 def build_parser():
@@ -48,9 +64,7 @@ def build_parser():
     for name, (func, help, arguments) in COMMANDS.items():
         p = sub.add_parser(name, help=help, description=help)
         arguments(p)
-        p.add_argument("--max-triangles", type=int, metavar="N",
-                       help="refuse work that would make more triangles than N "
-                            "(default 5,000,000; see docs/spec.md, limits)")
+        _limit_flags(p)
         p.set_defaults(func=func)
     return parser
 

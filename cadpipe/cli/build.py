@@ -10,7 +10,7 @@ a bar on stderr when it is a terminal, else one plain line per stage on stdout
 from pathlib import Path as FilePath
 
 from cadpipe import limits
-from cadpipe.cli import command
+from cadpipe.cli import budgets, command
 from cadpipe.errors import CadpipeError, InputError
 from cadpipe.io.files import LAYOUTS
 from cadpipe.io.scene import UNITS
@@ -40,7 +40,7 @@ def build(args):
     from cadpipe.io.files import check_target, ensure_folder, exporters, suffix_of
     from cadpipe.io.spec import read
 
-    spec = read(args.spec)
+    spec = read(args.spec, **budgets(args))
     outputs = [(FilePath(o), args.mode) for o in args.output] or \
         [(path, args.mode or mode) for path, mode in spec.outputs]
     if not outputs:

@@ -3,7 +3,7 @@
 import json
 import re
 
-from cadpipe.cli import command
+from cadpipe.cli import budgets, command
 
 
 def _arguments(parser):
@@ -25,7 +25,7 @@ def collide(args):
     from cadpipe.io.files import ensure_folder
     from cadpipe.io.spec import read
 
-    spec = read(args.spec)
+    spec = read(args.spec, **budgets(args))
     world, options = world_from_spec(spec), dict(spec.cell.check)
     if args.svg:
         options["certify"] = True

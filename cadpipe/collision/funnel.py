@@ -11,8 +11,10 @@ state or for thousands (``check()`` is ``check_path``'s batch of one):
   the OBB moved with the object;
 * :func:`decide` takes (slot, slot) entries and says which stage proves each
   apart: the AABB (the 18-DOP's first three slabs), the whole 18-DOP, the OBB
-  by the separating-axis theorem (15 axes, Gottschalk et al. 1996), or none
-  (the entry goes on to the exact narrow phase).
+  by the separating-axis theorem (15 axes, Gottschalk et al. 1996), the convex
+  pieces by GJK (:mod:`cadpipe.collision.convex`: a mesh's hull against the
+  other's hull or a pipe's units; two chains skip it, their exact test is
+  analytic anyway), or none (the entry goes on to the exact narrow phase).
 
 The arithmetic is the one :mod:`cadpipe.collision.bounds` documents; each
 test errs towards "overlap" (slack relative to the boxes' size), so a pair a
@@ -23,9 +25,10 @@ import numba
 import numpy as np
 
 from cadpipe.collision.bounds import KDOP_DIRECTIONS
+from cadpipe.collision.convex import FUNNEL_ITERATIONS, body_gap
 
 #: stage codes :func:`decide` writes (indices into ``world.STAGES``)
-AABB, KDOP, OBB = 1, 2, 3
+AABB, KDOP, OBB, HULL = 1, 2, 3, 4
 #: written for entries no bounding volume separates
 NARROW = -1
 #: a numpy-level 64 ulp of rounding per placed coordinate
@@ -116,30 +119,43 @@ def _obb_apart(ca, xa, ha, cb, xb, hb):
 
 
 @_jit
-def _decide_pair(kdop, centre, axes, half_a, half_b, a, b):
-    """The first stage that proves slots ``a`` and ``b`` apart, or :data:`NARROW`."""
+def _decide_pair(kdop, centre, axes, half_a, half_b, a, b, pieces, chain, i, m_i, j, m_j):
+    """The first stage that proves slots ``a`` and ``b`` (objects ``i`` and ``j`` at
+    poses ``m_i``, ``m_j``) apart, or :data:`NARROW`. ``pieces`` are the arguments
+    of :func:`~cadpipe.collision.convex.body_gap` before the objects, or None to
+    skip the hull stage (``certify=True`` leaves those pairs to the certificate);
+    ``chain`` (N,) marks the chains."""
     for d in range(9):
         if kdop[a, 0, d] > kdop[b, 1, d] or kdop[b, 0, d] > kdop[a, 1, d]:
             return AABB if d < 3 else KDOP
     if _obb_apart(centre[a], axes[a], half_a, centre[b], axes[b], half_b):
         return OBB
+    if pieces is not None and not (chain[i] and chain[j]):
+        points, pads, starts, ball_centre, ball_radius, owned = pieces
+        if body_gap(points, pads, starts, ball_centre, ball_radius, owned, i, m_i, j, m_j,
+                    0.0, FUNNEL_ITERATIONS) > 0.0:
+            return HULL
     return NARROW
 
 
 @_jit
-def decide(kdop, centre, axes, half_of, slot_a, slot_b, codes):
+def decide(kdop, centre, axes, half_of, slot_a, slot_b, pieces, chain, object_of, slot_poses,
+           codes):
     """For each entry ``(slot_a[k], slot_b[k])`` write into ``codes[k]`` the first
-    stage that proves it apart (:data:`AABB`, :data:`KDOP`, :data:`OBB`) or
-    :data:`NARROW`. ``half_of`` (R, 3) is each slot's OBB half extents."""
+    stage that proves it apart (:data:`AABB`, :data:`KDOP`, :data:`OBB`,
+    :data:`HULL`) or :data:`NARROW`. ``half_of`` (R, 3) is each slot's OBB half
+    extents, ``object_of`` (R,) its object and ``slot_poses`` (R, 4, 4) its pose."""
     for k in range(len(slot_a)):
         a, b = slot_a[k], slot_b[k]
-        codes[k] = _decide_pair(kdop, centre, axes, half_of[a], half_of[b], a, b)
+        codes[k] = _decide_pair(kdop, centre, axes, half_of[a], half_of[b], a, b, pieces,
+                                chain, object_of[a], slot_poses[a], object_of[b],
+                                slot_poses[b])
 
 
 @_jit
 def refresh(points, pads, starts, slack, obb_centre, obb_axes, half, poses, versions,
             placed_at, kdop, centre, axes, first, second, same, chosen, at_a, at_b, code,
-            colliding, exact, hits):
+            colliding, exact, hits, pieces, chain):
     """One state where the objects stand, brought up to date in one call.
 
     Objects whose pose version (``versions`` (N,)) differs from the one their
@@ -148,7 +164,8 @@ def refresh(points, pads, starts, slack, obb_centre, obb_axes, half, poses, vers
     tried by the bounding volumes, and the answer stored (``code``,
     ``colliding``) where one proves it apart. The pairs left for the exact
     phase are written to ``exact``, self pairs (``same``) first, each group in
-    pair order; returns how many. ``hits`` (2,) is set to whether a chosen pair
+    pair order; returns how many. ``pieces`` and ``chain`` are as for
+    :func:`decide`. ``hits`` (2,) is set to whether a chosen pair
     whose answer holds collides: a self pair, another pair.
     """
     for i in range(len(versions)):
@@ -166,7 +183,8 @@ def refresh(points, pads, starts, slack, obb_centre, obb_axes, half, poses, vers
                 if colliding[k]:
                     hits[0 if own else 1] = True
                 continue
-            found = _decide_pair(kdop, centre, axes, half[a], half[b], a, b)
+            found = _decide_pair(kdop, centre, axes, half[a], half[b], a, b, pieces, chain,
+                                 a, poses[a], b, poses[b])
             if found == NARROW:
                 exact[count] = k
                 count += 1

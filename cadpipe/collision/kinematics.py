@@ -47,3 +47,28 @@ def chain_poses(values, origin, turn, turn2, slide, revolute, prismatic, parent,
         for g in range(len(geometry)):
             out[c, g] = pose[geometry[g]]
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def joint_values(q, lower, upper, actuated, mimic, source, multiplier, offset, out):
+    """Every joint's value ``out`` (C, J) from the actuated ones ``q`` (C, A): fixed
+    joints 0, ``out[:, actuated] = q``, mimic joint ``mimic[m]`` at
+    ``multiplier[m] * out[:, source[m]] + offset[m]`` (mimics in joint order, so a
+    mimic of a mimic is derived after its source).
+
+    Returns -1, or the flat index ``c * A + a`` of the first value outside
+    ``[lower[a], upper[a]]`` (NaN included), 1e-9 of slack: one compiled pass
+    where validating in numpy was ~10 calls on arrays of a few numbers.
+    """
+    count, actuators = q.shape
+    for c in range(count):
+        for j in range(out.shape[1]):
+            out[c, j] = 0.0
+        for a in range(actuators):
+            v = q[c, a]
+            if not (v >= lower[a] - 1e-9 and v <= upper[a] + 1e-9):
+                return c * actuators + a
+            out[c, actuated[a]] = v
+        for m in range(len(mimic)):
+            out[c, mimic[m]] = multiplier[m] * out[c, source[m]] + offset[m]
+    return -1

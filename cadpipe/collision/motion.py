@@ -20,8 +20,10 @@ advancement (Mirtich 1996; Schwarzer, Saha and Latombe 2005), pair by pair:
    against a standing object has ``D = D_L``.
 3. **Advancing.** If a pair is apart by ``d`` at ``t``, it cannot touch before
    ``t + d / D``: that stretch is proven free and the pair advances there.
-   A cheap lower bound of ``d`` (bounding spheres) is tried first, the
-   exact clearance (:meth:`CollisionWorld.distance_at`) when it is not enough.
+   Cheap lower bounds of ``d`` are tried first -- bounding balls, then the
+   convex pieces' GJK bound (:mod:`cadpipe.collision.convex`); a bound of at
+   least :data:`EXACT_BELOW` advances the pair by itself, and only below that
+   is the exact clearance (:meth:`CollisionWorld.distance_at`) asked for.
    The start of each segment is checked whole (:meth:`CollisionWorld.check_path`,
    containment included); after it only boundaries can meet first, so the
    advancement measures the distance between boundaries.
@@ -38,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cadpipe.collision.convex import body_gaps
 from cadpipe.errors import InputError
 
 #: default clearance (world units, metres for URDF robots) counted as contact
@@ -45,6 +48,9 @@ TOLERANCE = 1e-4
 #: advancement rounds before giving up on a pair that grazes at just over the
 #: tolerance (it is then reported as in contact: conservative)
 MAX_ROUNDS = 10_000
+#: clearance bounds (world units) below which the exact clearance is asked for; above
+#: it the pair advances by its bound alone
+EXACT_BELOW = 5e-4
 
 
 @dataclass(frozen=True)
@@ -87,7 +93,7 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE):
     if len(values) < 2:
         raise InputError("a motion needs at least two configurations", key="configurations")
     q = np.asarray(configurations, np.float64)
-    pairs = _Pairs(world, group, robot)
+    pairs = _pairs(world, group, robot)
     chain = _chain(robot)
     calls = 0
     starts = start_contacts(world, group, q[:-1])
@@ -108,11 +114,10 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE):
 
 def robot_pairs(world, group):
     """``(P,)`` bool over the world's pairs (``np.triu_indices`` order of
-    ``world.names``, as :attr:`CollisionReports.pair_colliding`): the pairs with
-    at least one link of robot ``group``, the ones its motion can change."""
-    mine = np.array([world.group(n) == group for n in world.names])
-    first, second = np.triu_indices(len(mine), k=1)
-    return mine[first] | mine[second]
+    ``world.names``, as :attr:`CollisionReports.pair_colliding`): the pairs not
+    allowed with at least one link of robot ``group``, the ones its motion can
+    change."""
+    return world.checker.chosen(group)
 
 
 def robot_collides(world, group, configurations):
@@ -136,6 +141,21 @@ def start_contacts(world, group, q):
     return found
 
 
+_PAIRS = weakref.WeakKeyDictionary()
+
+
+def _pairs(world, group, robot):
+    """The world's :class:`_Pairs` for ``group``, made again only when objects,
+    allowed pairs or the standing objects' poses have changed."""
+    robot_ids = world._robot(group)[2]
+    standing = np.setdiff1d(np.arange(len(world.names)), robot_ids)
+    key = (group, world.layout_version, world.pose_versions[standing].tobytes())
+    known = _PAIRS.get(world)
+    if known is None or known[0] != key:
+        known = _PAIRS[world] = (key, _Pairs(world, group, robot))
+    return known[1]
+
+
 class _Pairs:
     """The pairs a robot's motion can change, not allowed: link-link (``b`` a
     geometry-link index) and link-object (``b < 0``, the object standing still)."""
@@ -153,14 +173,17 @@ class _Pairs:
                 if frozenset((x, y)) not in allowed:
                     a.append(i), b.append(-1), other.append(j)
         self.a, self.b, self.other = (np.array(v, np.int64) for v in (a, b, other))
+        # the world's object indices of each pair, and every object's convex pieces
+        index = {name: k for k, name in enumerate(world.names)}
+        self.object_a = np.array([index[links[i]] for i in a], np.int64)
+        self.object_b = np.array([index[links[j]] if j >= 0 else index[others[o]]
+                                  for j, o in zip(b, other)], np.int64)
+        self.pieces = world.checker.layout.pieces.arrays()
         self.name_a = [links[i] for i in a]
         self.name_b = [links[j] if j >= 0 else others[o] for j, o in zip(b, other)]
-        # each standing object's world box and pose, and the pipes' ball chains
+        # each standing object's world box and pose
         self.box = np.array([world.bounds(n) for n in others]).reshape(-1, 2, 3)
         self.pose = np.array([world.pose(n) for n in others]).reshape(-1, 4, 4)
-        bodies = [world.body(n) for n in others]
-        self.chains = {j: body.chain.moved(self.pose[j]) for j, body in enumerate(bodies)
-                       if body.kind == "chain"}
 
 
 _CHAINS = weakref.WeakKeyDictionary()
@@ -251,7 +274,8 @@ def _advance(world, robot, base, chain, pairs, q_a, q_b, v_a, v_b, tolerance):
 
     Each round places the links of every pair still short of the horizon at
     its own ``t`` (one batched forward-kinematics call), advances the pairs
-    whose bounding balls already prove the rest of the way, and asks the exact
+    whose bounding balls or convex pieces prove the rest of the way, steps the
+    pairs whose bound is at least :data:`EXACT_BELOW` by it, and asks the exact
     clearance of the others.
     """
     frames = robot.all_frame_poses(q_a[None], base)[0]
@@ -278,14 +302,22 @@ def _advance(world, robot, base, chain, pairs, q_a, q_b, v_a, v_b, tolerance):
             centre_b = np.where(link_b[:, None], centre_b, nearest)
         ball_b = np.where(link_b, chain.ball[np.maximum(b, 0)], 0.0)
         lower = np.linalg.norm(centre_a - centre_b, axis=1) - chain.ball[a] - ball_b
-        for j, pipe in pairs.chains.items():       # a pipe: the ball against its chain
-            at = np.flatnonzero(other == j)
-            if at.size:
-                lower[at] = np.maximum(lower[at], pipe.signed_distance(centre_a[at])
-                                       - chain.ball[a[at]])
-        enough = lower >= speed[active] * (horizon - t[active])
+        need = speed[active] * (horizon - t[active])
+        # the balls are not enough: the convex pieces' bound (compiled GJK)
+        close = np.flatnonzero(lower < need)
+        if close.size:
+            hulls = np.empty(close.size)
+            body_gaps(*pairs.pieces, pairs.object_a[active[close]],
+                      np.ascontiguousarray(pose_a[close]), pairs.object_b[active[close]],
+                      np.ascontiguousarray(pose_b[close]), need[close], hulls)
+            lower[close] = np.maximum(lower[close], hulls)
+        enough = lower >= need
         t[active[enough]] = horizon
-        for e in np.flatnonzero(~enough):
+        # a bound of at least EXACT_BELOW advances its pair without an exact query
+        cheap = ~enough & (lower >= max(EXACT_BELOW, tolerance)) & (speed[active] > 0)
+        t[active[cheap]] = np.minimum(t[active[cheap]] + lower[cheap] / speed[active[cheap]],
+                                      horizon)
+        for e in np.flatnonzero(~enough & ~cheap):
             k = active[e]
             if t[k] >= horizon:            # a contact found this round comes earlier
                 continue

@@ -183,7 +183,8 @@ def collide(body_a, poses_a, body_b, poses_b):
         contained[apart] = _inside(body_a, body_b, rel[apart])
         rest = apart[~contained[apart]]
         if body_b.kind == "mesh" and rest.size:
-            contained[rest] = _inside(body_b, body_a, relative(rel[rest], _EYE))
+            contained[rest] = _inside(body_b, body_a, relative(rel[rest], np.repeat(
+                _EYE[None], rest.size, axis=0)))      # the inverses (no broadcasting: slow)
     return touching | contained, contained
 
 

@@ -149,6 +149,27 @@ class Robot:
         One configuration may also be an ``(A,)`` sequence, a mapping by name
         (missing names take :attr:`default`), or None for :attr:`default`.
         """
+        from cadpipe.collision.kinematics import joint_values
+
+        k = self._kinematics
+        q = configurations
+        # an array of the right dtype and shape is taken as it is (the per-state path)
+        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.ndim in (1, 2)
+                and q.shape[-1] == len(k["lower"])):
+            q = self._as_values(q)
+        q = q[None] if q.ndim == 1 else q
+        values = np.empty((len(q), len(self.joints)))
+        bad = joint_values(q, k["lower"], k["upper"], k["actuated"], k["mimic"],
+                           k["mimic_source"], k["mimic_multiplier"], k["mimic_offset"], values)
+        if bad >= 0:
+            c, a = divmod(bad, q.shape[1])
+            raise InputError(f"{self.actuated[a]}={float(q[c, a])!r} is outside its limits "
+                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]", key="joints")
+        return values
+
+    def _as_values(self, configurations):
+        """``(C, A)`` or ``(A,)`` float64 joint values from any accepted input, or
+        :class:`InputError` saying what is wrong with it."""
         if configurations is None or hasattr(configurations, "items"):
             configurations = [self._from_mapping(configurations or {})]
         try:
@@ -156,22 +177,11 @@ class Robot:
         except (TypeError, ValueError):
             raise InputError("expected numbers (radians or metres), got "
                              f"{configurations!r}", key="joints") from None
-        q = q[None] if q.ndim == 1 else q
-        if q.ndim != 2 or q.shape[1] != len(self.actuated):
+        if q.ndim not in (1, 2) or q.shape[-1] != len(self.actuated):
             raise InputError(f"robot {self.name} has {len(self.actuated)} joints "
                              f"({', '.join(self.actuated)}), got "
                              f"{q.shape[-1] if q.ndim else 1} values", key="joints")
-        k = self._kinematics
-        within = (q >= k["lower"] - 1e-9) & (q <= k["upper"] + 1e-9)    # NaN is not
-        if not within.all():
-            c, a = np.argwhere(~within)[0]
-            raise InputError(f"{self.actuated[a]}={float(q[c, a])!r} is outside its limits "
-                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]", key="joints")
-        values = np.zeros((len(q), len(self.joints)))
-        values[:, k["actuated"]] = q
-        for j, source, multiplier, offset in k["mimics"]:
-            values[:, j] = multiplier * values[:, source] + offset
-        return values
+        return np.ascontiguousarray(q)
 
     def _from_mapping(self, joints):
         unknown = set(joints) - set(self.actuated)
@@ -189,24 +199,25 @@ class Robot:
         precomputed), then multiplied down the tree, in one compiled call for all
         configurations (:func:`cadpipe.collision.kinematics.chain_poses`).
         """
-        return self.all_frame_poses(configurations, base)[:, self._kinematics["geometry"]]
+        return self._frame_pose_array(self.joint_array(configurations), base,
+                                      self._kinematics["geometry"])
 
     def all_frame_poses(self, configurations, base=None):
         """``(C, F, 4, 4)`` world poses of every frame of the URDF, in :attr:`frames`
         order (the base first, then each joint's child), at ``(C, A)`` joint
         configurations."""
-        return self._frame_pose_array(self.joint_array(configurations), base)
+        return self._frame_pose_array(self.joint_array(configurations), base,
+                                      self._kinematics["frame_index"])
 
-    def _frame_pose_array(self, q, base):
-        """``(C, F, 4, 4)`` poses of every frame (:attr:`frames` order) at ``(C, J)``
-        values of every joint."""
+    def _frame_pose_array(self, q, base, frames):
+        """``(C, F, 4, 4)`` poses of the frames ``frames`` (F,) (indices into
+        :attr:`frames`) at ``(C, J)`` values of every joint."""
         from cadpipe.collision.kinematics import chain_poses
 
         k = self._kinematics
         return chain_poses(q, k["origin"], k["turn"], k["turn2"], k["slide"], k["revolute"],
                            k["prismatic"], k["parent"], k["child"],
-                           _EYE if base is None else np.asarray(base, np.float64),
-                           k["frame_index"])
+                           _EYE if base is None else np.asarray(base, np.float64), frames)
 
     def frame_poses(self, configurations, frame, base=None):
         """World pose of ``frame`` (any link of the URDF, with or without geometry,
@@ -233,7 +244,8 @@ class Robot:
                              + ", ".join(self.frames), key="frame") from None
         single = configurations is None or hasattr(configurations, "items") or \
             np.ndim(configurations) == 1
-        poses = self._frame_pose_array(self.joint_array(configurations), base)[:, at]
+        poses = self._frame_pose_array(self.joint_array(configurations), base,
+                                       np.array([at], np.int64))[:, 0]
         return poses[0] if single else poses
 
     def link_poses_at(self, joints=None, base=None):
@@ -325,9 +337,13 @@ def _kinematics(joints, base, geometry):
             "actuated": np.array(actuated, np.int64),
             "lower": np.array([joints[k].lower for k in actuated]),
             "upper": np.array([joints[k].upper for k in actuated]),
-            "mimics": [(k, position[j.mimic[0]], j.mimic[1], j.mimic[2])
-                       for k, j in enumerate(joints) if j.mimic is not None],
-            "geometry": [index[link] for link in geometry],
+            # mimic joint positions, the joints they follow, multipliers, offsets
+            "mimic": np.array([k for k, j in enumerate(joints) if j.mimic], np.int64),
+            "mimic_source": np.array([position[j.mimic[0]] for j in joints if j.mimic],
+                                     np.int64),
+            "mimic_multiplier": np.array([j.mimic[1] for j in joints if j.mimic], float),
+            "mimic_offset": np.array([j.mimic[2] for j in joints if j.mimic], float),
+            "geometry": np.array([index[link] for link in geometry], np.int64),
             # the same as arrays, for the compiled walk (cadpipe.collision.kinematics)
             "parent": np.array([index[j.parent] for j in joints], np.int64),
             "child": np.array([index[j.child] for j in joints], np.int64),

@@ -36,10 +36,12 @@ entries in another and hands the narrow phase whole batches per pair.
 
 import operator
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
@@ -49,13 +51,21 @@ from cadpipe.collision import funnel
 from cadpipe.collision import narrow
 from cadpipe.collision.bodies import as_body
 
+if TYPE_CHECKING:                       # the answer types of the optional queries
+    from cadpipe.collision.certificate import Certificate
+    from cadpipe.collision.fixture import PipeContainment
+    from cadpipe.collision.motion import MotionCheck
+
 #: stages that can decide a pair, in the order a pair meets them
-STAGES = ("allowed", "aabb", "kdop", "obb", "certificate", "fcl", "containment", "analytic",
+STAGES = ("allowed", "aabb", "kdop", "obb", "hull", "certificate", "fcl", "containment", "analytic",
           "not checked")
 _CODE = {name: i for i, name in enumerate(STAGES)}
-assert (_CODE["aabb"], _CODE["kdop"], _CODE["obb"]) == (funnel.AABB, funnel.KDOP, funnel.OBB)
+assert (_CODE["aabb"], _CODE["kdop"], _CODE["obb"], _CODE["hull"]) == \
+    (funnel.AABB, funnel.KDOP, funnel.OBB, funnel.HULL)
 #: configurations per pass of the broad phase (bounds the entry arrays' memory)
 CONFIGURATION_CHUNK = 2048
+#: the first chunk of ``check_path(first_hit=True)``, doubled each pass after it
+FIRST_CHUNK = 16
 
 
 def as_pose(transform, name):
@@ -71,7 +81,8 @@ def as_poses(transforms, name, shape=None):
     :class:`InputError` naming the object."""
     m = as_matrix(transforms, part=name, stack=True, rigid=True)
     if shape is not None and m.shape != shape:
-        raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name)
+        raise InputError(f"transform must be a 4x4 matrix, got shape {m.shape}", part=name,
+                         key="transform")
     return m
 
 
@@ -287,7 +298,7 @@ class Scene:
         self-collision pairs; every object is checked against every other.
         """
         if not isinstance(name, str) or not name:
-            raise InputError(f"object name must be a non-empty string, got {name!r}")
+            raise InputError(f"object name must be a non-empty string, got {name!r}", key="name")
         if name in self._index:
             raise InputError("an object of that name is already in the world; "
                              "use set_pose() to move it or pick another name", part=name)
@@ -361,7 +372,7 @@ class Scene:
         group = robot.name if group is None else str(group)
         if group in self._robots:
             raise InputError(f"a robot with group {group!r} is already in the world; "
-                             "pass another group=")
+                             "pass another group=", key="group")
         base = as_pose(transform, f"robot {robot.name}")
         shapes = robot.link_shapes
         for link, pose in robot.link_poses(joints, base).items():
@@ -378,14 +389,17 @@ class Scene:
 
     def _robot(self, group):
         if group not in self._robots:
-            raise InputError(f"no robot in group {group!r}; robots: {', '.join(self._robots)}")
+            raise InputError(f"no robot in group {group!r}; robots: {', '.join(self._robots)}",
+                             key="group")
         return self._robots[group]
 
     def set_joints(self, group, joints):
         """Re-pose the links of the robot added as ``group`` (one configuration: a
         sequence over ``robot.actuated`` or a mapping by joint name)."""
         robot, base, ids = self._robot(group)
-        self._moved(ids, robot.link_poses_at(joints, base))
+        # the links were added one after another: a slice moves them without fancy indexing
+        self._moved(slice(ids[0], ids[0] + len(ids)) if len(ids) else ids,
+                    robot.link_poses_at(joints, base))
 
 
 # -- the checker ---------------------------------------------------------------------
@@ -417,6 +431,17 @@ class _Layout:
         self.obb_centre = np.array([b.obb[0] for b in bodies]).reshape(-1, 3)
         self.obb_axes = np.array([b.obb[1] for b in bodies]).reshape(-1, 3, 3)
         self.half = np.array([b.obb[2] for b in bodies]).reshape(-1, 3)
+        #: group (or None for all) -> (P,) mask of the pairs ``check(only=group)`` decides
+        self.chosen = {}
+        self._bodies = tuple(bodies)
+        self.chain = np.array([b.kind == "chain" for b in bodies], bool)
+
+    @cached_property
+    def pieces(self):
+        """Every object's convex pieces (:class:`cadpipe.collision.convex.Pieces`)."""
+        from cadpipe.collision.convex import Pieces
+
+        return Pieces(self._bodies)
 
     def place(self, ids, poses):
         """Bounds of objects ``ids`` (E,) at ``poses`` (E, 4, 4): world 18-DOPs
@@ -468,9 +493,16 @@ class Checker:
     def check(self, stop_after_self=False, certify=False, first_hit=False, only=None):
         """Decide every pair where the objects stand; a :class:`CollisionReport`.
         See :meth:`CollisionWorld.check`."""
-        table = self.layout.table
-        chosen = ~table.allowed if only is None else ~table.allowed & self._involving(only)
-        return self._standing(chosen, stop_after_self, certify, first_hit)
+        return self._standing(self.chosen(only), stop_after_self, certify, first_hit)
+
+    def chosen(self, only=None):
+        """(P,) mask of the pairs ``check(only=only)`` decides: not allowed, and with
+        an object of group ``only`` (every pair for None); made once per layout."""
+        layout = self.layout
+        if only not in layout.chosen:
+            layout.chosen[only] = ~layout.table.allowed if only is None else \
+                ~layout.table.allowed & self._involving(only)
+        return layout.chosen[only]
 
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
@@ -487,7 +519,8 @@ class Checker:
                                layout.obb_centre, layout.obb_axes, layout.half, scene._poses,
                                versions, placed.at, placed.kdop, placed.centre, placed.axes,
                                table.first, table.second, table.same, chosen, answers.at_a,
-                               answers.at_b, answers.code, answers.colliding, exact, hits)
+                               answers.at_b, answers.code, answers.colliding, exact, hits,
+                               None if certify else layout.pieces.arrays(), layout.chain)
         if answers.certificates:                     # pairs the boxes have decided since
             for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
                 del answers.certificates[k]
@@ -515,17 +548,21 @@ class Checker:
         table, groups = self.layout.table, self.layout.groups
         if group not in set(groups):
             raise InputError(f"check(only={group!r}): no object in that group; groups: "
-                             + ", ".join(sorted({str(g) for g in groups if g is not None})))
+                             + ", ".join(sorted({str(g) for g in groups if g is not None})),
+                             key="only")
         member = groups == group
         return member[table.first] | member[table.second]
 
-    def check_moving(self, ids, poses, stop_after_self=False, certify=False):
+    def check_moving(self, ids, poses, stop_after_self=False, certify=False, first_hit=False):
         """Every pair in each of C configurations: objects ``ids`` (m,) at ``poses``
         (C, m, 4, 4), all others where they stand; a :class:`CollisionReports`.
 
         Pairs of standing objects are decided once, as :meth:`check` decides
         them; pairs with a moving object go through the funnel for all
         configurations together, in chunks that keep the entry arrays small.
+        With ``first_hit`` the chunks start small and grow, and the check stops
+        after the chunk holding the first colliding configuration: every
+        configuration after that one is left ``"not checked"``.
         """
         layout, n = self.layout, len(self.scene._names)
         table = layout.table
@@ -543,11 +580,20 @@ class Checker:
             # configuration -1: a certificate that holds in every configuration
             certificates.update({(-1, k): cert for k, cert in still.certificates.items()})
         pairs = np.flatnonzero(~standing_pairs & ~table.allowed)
-        for start in range(0, count, CONFIGURATION_CHUNK):
-            part = slice(start, start + CONFIGURATION_CHUNK)
+        start, size = 0, FIRST_CHUNK if first_hit else CONFIGURATION_CHUNK
+        while start < count:
+            part = slice(start, start + size)
             found = self._moving_pairs(ids, poses[part], pairs, codes[part], colliding[part],
                                        certify)
             certificates.update({(c + start, k): cert for (c, k), cert in found.items()})
+            start, size = start + size, min(2 * size, CONFIGURATION_CHUNK)
+            hit = np.flatnonzero(colliding[:start].any(axis=1)) if first_hit else ()
+            if len(hit):
+                after = slice(hit[0] + 1, None)
+                codes[after, ~table.allowed] = _CODE["not checked"]
+                colliding[after] = False
+                certificates = {key: c for key, c in certificates.items() if key[0] <= hit[0]}
+                break
         stopped = np.zeros(count, bool)
         if stop_after_self:
             stopped = colliding[:, table.same].any(axis=1)
@@ -575,7 +621,9 @@ class Checker:
         k = np.tile(pairs, count)
         slot_a, slot_b = slot[config, table.first[k]], slot[config, table.second[k]]
         found = np.empty(len(k), np.int8)
-        funnel.decide(kdop, centre, axes, layout.half[obj], slot_a, slot_b, found)
+        funnel.decide(kdop, centre, axes, layout.half[obj], slot_a, slot_b,
+                      None if certify else layout.pieces.arrays(), layout.chain, obj,
+                      slot_poses, found)
         boxed = found != funnel.NARROW
         codes[config[boxed], k[boxed]] = found[boxed]
         rest = (~boxed).nonzero()[0]
@@ -653,7 +701,8 @@ class Checker:
         body = self.scene._bodies[i]
         if body.kind != "chain":
             raise InputError(f"inside({pipe_name!r}): that object is a mesh; inside() needs a "
-                             "pipe, sphere or capsule (use distance() for meshes)")
+                             "pipe, sphere or capsule (use distance() for meshes)",
+                             part=pipe_name)
         points = as_points(points, "points")
         return containment(body.chain.moved(self.scene._poses[i]), points)
 
@@ -710,16 +759,28 @@ class CollisionWorld(Scene):
     """
 
     @cached_property
-    def checker(self):
+    def checker(self) -> "Checker":
         """The :class:`Checker` of this scene."""
         return Checker(self)
 
-    def bounds(self, name):
-        """The world AABB of ``name`` as a (2, 3) array."""
+    def bounds(self, name: str) -> np.ndarray:
+        """The world AABB of an object where it stands.
+
+        Parameters
+        ----------
+        name : str
+            The object.
+
+        Returns
+        -------
+        (2, 3) array
+            Its lower and upper corner (world units).
+        """
         return self.checker.bounds(name)
 
-    def check(self, stop_after_self=False, certify=False, first_hit=False, only=None):
-        """Decide every pair; returns a :class:`CollisionReport`.
+    def check(self, stop_after_self: bool = False, certify: bool = False,
+              first_hit: bool = False, only: str | None = None) -> CollisionReport:
+        """Decide every pair where the objects stand.
 
         Parameters
         ----------
@@ -740,31 +801,72 @@ class CollisionWorld(Scene):
             that group -- the robot against itself and the world -- and leave
             obstacle-obstacle pairs ``"not checked"``.
 
-        Pairs whose objects have not moved since they were last decided keep
-        that answer: after ``set_joints`` only the robot's pairs are decided.
+        Returns
+        -------
+        CollisionReport
+            Pairs whose objects have not moved since they were last decided keep
+            that answer: after ``set_joints`` only the robot's pairs are decided.
         """
         return self.checker.check(stop_after_self, certify, first_hit, only)
 
-    def check_motion(self, group, q_a, q_b, tolerance=None):
+    def check_motion(self, group: str, q_a: ArrayLike, q_b: ArrayLike,
+                     tolerance: float | None = None) -> "MotionCheck":
         """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
-        ``q_b`` (a :class:`~cadpipe.collision.motion.MotionCheck`); see
-        :mod:`cadpipe.collision.motion` for the bound and ``tolerance``."""
+        ``q_b``; see :mod:`cadpipe.collision.motion` for the bound.
+
+        Parameters
+        ----------
+        group : str
+            The robot's group (see :meth:`add_robot`).
+        q_a, q_b : (A,) array
+            Joint values over ``robot.actuated`` at the start and the end.
+        tolerance : float, optional
+            Clearance (world units) counted as contact.
+
+        Returns
+        -------
+        MotionCheck
+            ``free`` proves the whole motion free; otherwise where it first
+            comes within ``tolerance`` of contact.
+        """
         return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
 
-    def check_path(self, group, configurations, stop_after_self=False, certify=False,
-                   between=False, tolerance=None):
+    def check_path(self, group: str, configurations: ArrayLike, stop_after_self: bool = False,
+                   certify: bool = False, between: bool = False, tolerance: float | None = None,
+                   first_hit: bool = False) -> "CollisionReports | MotionCheck":
         """:meth:`check` at each of many joint configurations of the robot ``group``,
-        in one vectorized pass; returns :class:`CollisionReports`.
+        in one vectorized pass.
 
-        ``configurations`` is a ``(C, A)`` array over ``robot.actuated`` (a
-        trajectory's waypoints, say). Each configuration is checked where it
-        stands -- the motion between them is not swept -- and its report is
-        the one :meth:`set_joints` then :meth:`check` would give. The robot
-        stays where :meth:`set_joints` last put it.
+        Parameters
+        ----------
+        group : str
+            The robot's group (see :meth:`add_robot`).
+        configurations : (C, A) array
+            Joint values over ``robot.actuated`` (radians, metres): a
+            trajectory's waypoints, say.
+        stop_after_self, certify : bool
+            As for :meth:`check`, per configuration.
+        between : bool
+            Certify the motion between consecutive configurations instead
+            (conservative advancement, stopping at the first contact; see
+            :mod:`cadpipe.collision.motion`).
+        tolerance : float, optional
+            With ``between``: the clearance (world units) counted as contact,
+            :data:`cadpipe.collision.motion.TOLERANCE` by default.
+        first_hit : bool
+            Stop at the first colliding configuration: every pair of the
+            configurations after it is ``"not checked"`` (and not colliding),
+            so ``reports.colliding.argmax()`` is the first hit when
+            ``reports.colliding.any()``. A motion check (``between``) always
+            stops at its first contact.
 
-        With ``between=True`` the motion between consecutive configurations is
-        certified instead (conservative advancement, stopping at the first
-        contact) and a :class:`~cadpipe.collision.motion.MotionCheck` returned.
+        Returns
+        -------
+        CollisionReports
+            One report per configuration, each the one :meth:`set_joints` then
+            :meth:`check` would give (the motion between them is not swept);
+            with ``between=True`` a :class:`~cadpipe.collision.motion.MotionCheck`.
+            The robot stays where :meth:`set_joints` last put it.
         """
         if between:
             from cadpipe.collision import motion
@@ -773,44 +875,110 @@ class CollisionWorld(Scene):
                                        motion.TOLERANCE if tolerance is None else tolerance)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
-        return self.checker.check_moving(ids, poses, stop_after_self, certify)
+        return self.checker.check_moving(ids, poses, stop_after_self, certify, first_hit)
 
-    def check_many(self, poses, stop_after_self=False, certify=False):
+    def check_many(self, poses: dict, stop_after_self: bool = False,
+                   certify: bool = False) -> CollisionReports:
         """:meth:`check` with objects placed at each of C poses, in one vectorized pass.
 
-        ``poses`` maps object names to ``(C, 4, 4)`` rigid transforms (the same C
-        for all); objects not named stay where they are. Returns
-        :class:`CollisionReports`, one report per configuration, each the one
-        :meth:`set_pose` then :meth:`check` would give.
+        Parameters
+        ----------
+        poses : mapping of name -> (C, 4, 4) array
+            Rigid transforms (the same C for all); objects not named stay where
+            they are.
+        stop_after_self, certify : bool
+            As for :meth:`check`, per configuration.
+
+        Returns
+        -------
+        CollisionReports
+            One report per configuration, each the one :meth:`set_pose` then
+            :meth:`check` would give.
         """
         if not hasattr(poses, "items") or not poses:
             raise InputError("check_many(poses): pass a mapping of object names to (C, 4, 4) "
-                             "pose arrays")
+                             "pose arrays", key="poses")
         ids = np.array([self._find(name) for name in poses])
         stacked = [as_poses(p, name) for name, p in poses.items()]
         if any(p.ndim != 3 for p in stacked) or len({len(p) for p in stacked}) != 1:
             raise InputError("check_many(poses): every object needs a (C, 4, 4) array with the "
-                             "same C, got shapes " + ", ".join(str(p.shape) for p in stacked))
+                             "same C, got shapes " + ", ".join(str(p.shape) for p in stacked),
+                             key="poses")
         return self.checker.check_moving(ids, np.stack(stacked, axis=1), stop_after_self,
                                          certify)
 
-    def distance(self, a, b):
-        """See :meth:`Checker.distance`."""
+    def distance(self, a: str, b: str) -> Clearance:
+        """Clearance between two objects where they stand, with the closest points.
+
+        Parameters
+        ----------
+        a, b : str
+            The objects.
+
+        Returns
+        -------
+        Clearance
+            Distance 0 (and no points) when they touch or one contains the other.
+        """
         return self.checker.distance(a, b)
 
-    def distance_at(self, a, b, pose_a, pose_b, containment=True):
-        """Clearance (0 when touching) between ``a`` placed at ``pose_a`` and ``b`` at
-        ``pose_b``, rigid 4x4 poses; where they stand is unchanged. With
-        ``containment=False`` it is the distance between the boundaries (a solid
-        inside another is not seen), as a motion from a free state needs."""
+    def distance_at(self, a: str, b: str, pose_a: np.ndarray, pose_b: np.ndarray,
+                    containment: bool = True) -> float:
+        """Clearance between ``a`` placed at ``pose_a`` and ``b`` at ``pose_b``;
+        where they stand is unchanged.
+
+        Parameters
+        ----------
+        a, b : str
+            The objects.
+        pose_a, pose_b : (4, 4) array
+            Rigid poses to place them at.
+        containment : bool
+            False: the distance between the boundaries (a solid inside another is
+            not seen), as a motion from a free state needs.
+
+        Returns
+        -------
+        float
+            The clearance (world units), 0 when touching.
+        """
         i, j = self._find(a), self._find(b)
         return float(narrow.distance(self._bodies[i], pose_a, self._bodies[j], pose_b,
                                      containment)[0])
 
-    def separate(self, a, b, step_degrees=None):
-        """See :meth:`Checker.separate`."""
+    def separate(self, a: str, b: str,
+                 step_degrees: float | None = None) -> "Certificate | None":
+        """The source's separation certificate for two objects where they stand.
+
+        Parameters
+        ----------
+        a, b : str
+            The objects.
+        step_degrees : float, optional
+            The angular step of the certificate's search.
+
+        Returns
+        -------
+        Certificate or None
+            A returned certificate has passed its independent verifier: it
+            proves the pair does not touch.
+        """
         return self.checker.separate(a, b, step_degrees)
 
-    def inside(self, pipe_name, points):
-        """See :meth:`Checker.inside`."""
+    def inside(self, pipe_name: str, points: ArrayLike) -> "PipeContainment":
+        """Virtual fixture: which world points lie inside a pipe (or other ball
+        chain), and where the polyline through them first leaves it.
+
+        Parameters
+        ----------
+        pipe_name : str
+            The pipe, sphere or capsule.
+        points : (P, 3) array
+            World points, in the order a tool visits them.
+
+        Returns
+        -------
+        PipeContainment
+            Inside or not per point, and where the path first leaves.
+        """
         return self.checker.inside(pipe_name, points)

@@ -12,6 +12,7 @@ from functools import lru_cache, partial
 
 import numpy as np
 
+from cadpipe.geometry import buffers
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import ring_basis
 
@@ -170,10 +171,10 @@ class Surface:
 
     def build(self):
         """``(vertices, faces, face_part)``; ``face_part`` is None when no block has a part."""
-        vertices = np.empty((self.vertex_count, 3))
-        faces = np.empty((self.face_count, 3), np.int64)
+        vertices = buffers.empty((self.vertex_count, 3))         # recycled memory: see buffers
+        faces = buffers.empty((self.face_count, 3), np.int64)
         labelled = any(part is not None for *_, part in self._face_blocks)
-        face_part = np.empty(self.face_count, np.int32) if labelled else None
+        face_part = buffers.empty(self.face_count, np.int32) if labelled else None
         for first, count, fill in self._vertex_blocks:
             fill(vertices[first:first + count])
         for first, count, fill, part in self._face_blocks:

@@ -10,7 +10,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from cadpipe.geometry import clearance
+from cadpipe.geometry import buffers, clearance
 from cadpipe._vec import cross, dot
 from cadpipe.geometry.frames import frames
 from cadpipe.geometry.ragged import blocks
@@ -82,7 +82,7 @@ class Tubes:
         it lies on both adjacent segments' cylinders.
         """
         lines = self.lines
-        out = np.empty((self.groups.size, 3, 3))
+        out = buffers.empty((self.groups.size, 3, 3))
         for rows in blocks(self.groups.size):
             n = self.normals[:, rows]
             b = cross(lines.tangents[:, rows], n, 0)

@@ -31,7 +31,7 @@ def suffix_of(path):
     """The format key of a path: its lower-case suffix without the dot."""
     suffix = FilePath(path).suffix.lower().lstrip(".")
     if not suffix:
-        raise InputError(f"{path}: no file suffix; use one of {', '.join(exporters.names())}")
+        raise InputError(f"no file suffix; use one of {', '.join(exporters.names())}", file=path)
     return suffix
 
 
@@ -68,8 +68,8 @@ def export(obj, path, *, layout="scene", **options):
 
     key = suffix_of(path)
     if key not in exporters:
-        raise InputError(f"{path}: unknown output format '.{key}'; supported: "
-                         f"{', '.join('.' + n for n in exporters.names())}")
+        raise InputError(f"unknown output format '.{key}'; supported: "
+                         f"{', '.join('.' + n for n in exporters.names())}", file=path)
     if layout not in LAYOUTS:
         raise InputError(f"expected one of {', '.join(LAYOUTS)}, got {layout!r}",
                          key="layout")
@@ -103,10 +103,10 @@ def check_target(path):
     folder, or a file stands where one of its folders should be."""
     path = FilePath(path)
     if path.is_dir():
-        raise ExportError(f"{path}: is a folder; give the name of a file to write")
+        raise ExportError("is a folder; give the name of a file to write", file=path)
     blocker = _file_in_the_way(path.parent)
     if blocker is not None:
-        raise ExportError(f"{path}: {blocker} is a file, not a folder; choose another path")
+        raise ExportError(f"{blocker} is a file, not a folder; choose another path", file=path)
 
 
 def ensure_folder(folder):
@@ -114,12 +114,13 @@ def ensure_folder(folder):
     folder = FilePath(folder)
     blocker = _file_in_the_way(folder)
     if blocker is not None:
-        raise ExportError(f"{folder}: cannot create the output folder: {blocker} is a file; "
-                          "choose another folder")
+        raise ExportError(f"cannot create the output folder: {blocker} is a file; "
+                          "choose another folder", file=folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror})") from None
+        raise ExportError(f"cannot create the output folder ({exc.strerror})",
+                          file=folder) from None
     return folder
 
 
@@ -157,13 +158,13 @@ def atomic_path(path):
     directory = path.parent if str(path.parent) else FilePath(".")
     check_target(path)
     if not directory.is_dir():
-        raise ExportError(f"{path}: folder {directory} does not exist; create it first")
+        raise ExportError(f"folder {directory} does not exist; create it first", file=path)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp" + path.suffix,
                                    dir=directory)
     except OSError as exc:
-        raise ExportError(f"{path}: cannot write there ({exc.strerror}); "
-                          "choose a writable folder") from None
+        raise ExportError(f"cannot write there ({exc.strerror}); "
+                          "choose a writable folder", file=path) from None
     fcntl.flock(fd, fcntl.LOCK_EX)            # ours until written: not stale
     try:
         _remove_stale(path)
@@ -171,7 +172,7 @@ def atomic_path(path):
         os.chmod(tmp, 0o666 & ~_umask())      # mkstemp's 0600 is for the temporary only
         os.replace(tmp, path)
     except OSError as exc:
-        raise ExportError(f"{path}: writing failed ({exc}); nothing was written") from None
+        raise ExportError(f"writing failed ({exc}); nothing was written", file=path) from None
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -232,13 +233,13 @@ def file_mesh(vertices, faces, path, name, **options):
 
     vertices = np.asarray(vertices, dtype=np.float64)
     if not (np.abs(vertices) <= MAX_MAGNITUDE).all():
-        raise MeshError(f"part {name!r}: some vertex coordinates are NaN or infinite "
-                        f"(or beyond {MAX_MAGNITUDE:g}); the file is corrupt", file=path,
-                        part=name)
+        raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
+                        f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
     try:
         return Mesh(vertices, faces, **options)
     except InputError as exc:
-        raise MeshError(f"part {name!r}: {exc}", file=path, part=name) from None
+        raise MeshError(exc.message, key=exc.key, file=path, part=name,
+                        index=exc.index) from None
 
 
 def welded(mesh):
@@ -272,6 +273,13 @@ def _trimesh_scene(path, key):
     if isinstance(loaded, trimesh.Trimesh):
         pieces = [(path.stem, loaded)]
     elif isinstance(loaded, trimesh.Scene):
+        from cadpipe import limits
+
+        # a 3MF's build items and components may repeat one object many times over
+        limits.check("max_triangles", sum(len(getattr(loaded.geometry[loaded.graph[n][1]],
+                                                      "faces", ())) for n in
+                                          loaded.graph.nodes_geometry),
+                     "this file's placed objects", file=path)
         pieces = []
         for node in loaded.graph.nodes_geometry:
             matrix, name = loaded.graph[node]
@@ -305,7 +313,8 @@ def _trimesh_scene(path, key):
 def _face_colour_labels(tm, name):
     """Labels of a trimesh's faces by face colour (a PLY's, a 3MF's), names and colours."""
     raw = tm.metadata.get("_ply_raw", {}).get("face", {}).get("data")
-    if raw is not None and all(c in raw.dtype.names for c in ("red", "green", "blue")):
+    fields = raw if isinstance(raw, dict) else getattr(getattr(raw, "dtype", None), "names", None)
+    if fields and all(c in fields for c in ("red", "green", "blue")):   # ASCII PLY: a dict
         rgb = np.column_stack([raw["red"], raw["green"], raw["blue"]]).astype(np.uint8)
     elif tm.visual.kind == "face":
         rgb = np.asarray(tm.visual.face_colors)[:, :3]

@@ -25,7 +25,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from cadpipe.errors import InputError, MeshError
+from cadpipe import limits
+from cadpipe.errors import CadpipeError, InputError, MeshError, shown
 from cadpipe.io.files import atomic_path, file_mesh, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import DEFAULT_CREASE_ANGLE, split_for_normals
@@ -177,28 +178,46 @@ def read_glb(path):
     """
     from cadpipe.io.scene import Scene, ScenePart
 
+    limits.check("max_unpacked_bytes", FilePath(path).stat().st_size, "reading this GLB file",
+                 file=path)
     data = FilePath(path).read_bytes()
     try:
         magic, _, _ = struct.unpack_from("<4sII", data, 0)
         json_length, json_kind = struct.unpack_from("<I4s", data, 12)
+        if magic != b"glTF" or json_kind != b"JSON":
+            raise MeshError("not a binary glTF file (no glTF header)", file=path)
+        if 20 + json_length > len(data):
+            raise MeshError(f"truncated: its JSON chunk declares {json_length:,} bytes, "
+                            f"the file holds {len(data) - 20:,}", file=path)
         doc = json.loads(data[20:20 + json_length])
         binary = b""
         if len(data) > 28 + json_length:
             bin_length, _ = struct.unpack_from("<I4s", data, 20 + json_length)
+            if 28 + json_length + bin_length > len(data):
+                raise MeshError(f"truncated: its binary chunk declares {bin_length:,} bytes, "
+                                f"the file holds {len(data) - 28 - json_length:,}", file=path)
             binary = memoryview(data)[28 + json_length:28 + json_length + bin_length]
+    except MeshError:
+        raise
     except (struct.error, ValueError) as exc:
         raise MeshError(f"not a binary glTF file ({exc})", file=path) from None
-    if magic != b"glTF" or json_kind != b"JSON":
-        raise MeshError("not a binary glTF file (no glTF header)", file=path)
-    to_z_up = np.eye(4)
-    to_z_up[:3, :3] = TO_Y_UP["Z"].T
+    except RecursionError:
+        raise MeshError("its JSON nests too deeply to read", file=path) from None
     try:
-        parts, colors = _gltf_parts(doc, binary, to_z_up)
+        order = _scene_nodes(doc)
+        _check_budget(doc, order, path, len(data), len(binary))
+        parts, colors = _gltf_parts(doc, order, binary)
+    except CadpipeError:
+        raise
     except (KeyError, IndexError, TypeError, ValueError) as exc:
         raise MeshError(f"malformed glTF ({type(exc).__name__}: {exc})",
                         file=path) from None
+    to_z_up = np.eye(4)
+    to_z_up[:3, :3] = TO_Y_UP["Z"].T
     taken, scene_parts = set(), []
     for name, vertices, faces, labels, names in parts:
+        with np.errstate(all="ignore"):           # inf/NaN: file_mesh names the part
+            vertices = vertices @ to_z_up[:3, :3].T
         mesh = file_mesh(vertices, faces, path, name, face_part=labels,
                          part_names=names, attributes={"source": str(path), "units": "m"})
         scene_parts.append(ScenePart(unique_name(name, taken), mesh))
@@ -208,18 +227,64 @@ def read_glb(path):
                  colors=MappingProxyType(colors))
 
 
-def _gltf_parts(doc, binary, root):
-    """[(name, vertices, faces, labels, label names)] and {label name: rgb} of a glTF doc,
-    the vertices placed by ``root`` (4, 4) times each node's world matrix."""
-    nodes, meshes = doc.get("nodes", []), doc.get("meshes", [])
+def _scene_nodes(doc):
+    """Indices of the nodes of the scene shown, parents first, checked to form trees
+    (as glTF requires): a node listed twice or in a cycle would be read many times
+    over, or forever."""
+    nodes = doc.get("nodes", [])
     scene = doc.get("scenes", [{"nodes": list(range(len(nodes)))}])[doc.get("scene", 0)]
-    parts, colors = [], {}
-    stack = [(i, root) for i in reversed(scene.get("nodes", []))]
-    while stack:                             # depth first, in the file's order
-        index, parent = stack.pop()
+    order, seen = [], set()
+    stack = list(reversed(scene.get("nodes", [])))
+    while stack:
+        index = stack.pop()
+        if not isinstance(index, int) or index < 0 or index in seen:
+            raise ValueError(f"node {shown(index)} is reached twice: the nodes do not form "
+                             "trees")
+        seen.add(index)
+        order.append(index)
+        stack.extend(reversed(nodes[index].get("children", [])))
+    return order
+
+
+def _check_budget(doc, order, path, size, stored):
+    """Refuse a GLB that would expand past :mod:`cadpipe.limits`' budgets, from the
+    counts its accessors declare, before any array is read; and one whose buffer or
+    views claim more bytes than its binary chunk holds (``stored``)."""
+    claimed = max([b.get("byteLength", 0) for b in doc.get("buffers", [])[:1]] +
+                  [v.get("byteOffset", 0) + v["byteLength"] for v in doc.get("bufferViews", [])
+                   if v.get("buffer", 0) == 0], default=0)
+    if not claimed <= stored:
+        raise MeshError(f"truncated: its buffers claim {shown(claimed)} bytes, its binary "
+                        f"chunk holds {stored:,}", file=path)
+    nodes, meshes, accessors = doc.get("nodes", []), doc.get("meshes", []), \
+        doc.get("accessors", [])
+    triangles = points = 0
+    for index in order:
+        if "mesh" not in nodes[index]:
+            continue
+        for primitive in meshes[nodes[index]["mesh"]].get("primitives", []):
+            position = accessors[primitive["attributes"]["POSITION"]]["count"]
+            corners = accessors[primitive["indices"]]["count"] if "indices" in primitive \
+                else position
+            triangles, points = triangles + corners // 3, points + position
+    unpacked = 24 * (triangles + points)          # float64 points, int64 corner indices
+    limits.check("max_triangles", triangles, "reading this GLB file", file=path)
+    limits.check("max_unpacked_bytes", unpacked, "reading this GLB file", file=path)
+    if unpacked > (1 << 20):
+        limits.check("max_expansion", unpacked / max(size, 1),
+                     "this GLB file (its nodes repeat its meshes)", file=path)
+
+
+def _gltf_parts(doc, order, binary):
+    """[(name, vertices, faces, labels, label names)] and {label name: rgb} of a glTF doc's
+    nodes ``order`` (see :func:`_scene_nodes`)."""
+    nodes, meshes = doc.get("nodes", []), doc.get("meshes", [])
+    parts, colors, worlds = [], {}, {}
+    parent = {child: index for index in order for child in nodes[index].get("children", [])}
+    for index in order:                       # depth first, in the file's order
         node = nodes[index]
-        world = parent @ _node_matrix(node)
-        stack.extend((child, world) for child in reversed(node.get("children", [])))
+        world = worlds[index] = (worlds[parent[index]] if index in parent else np.eye(4)) \
+            @ _node_matrix(node)
         if "mesh" not in node:
             continue
         mesh = meshes[node["mesh"]]
@@ -243,7 +308,8 @@ def _gltf_parts(doc, binary, root):
             continue
         offsets = np.cumsum([0] + [len(v) for v, _, _ in pieces[:-1]])
         vertices = np.concatenate([v for v, _, _ in pieces]).astype(np.float64)
-        vertices = vertices @ world[:3, :3].T + world[:3, 3]
+        with np.errstate(all="ignore"):           # inf/NaN: file_mesh names the part
+            vertices = vertices @ world[:3, :3].T + world[:3, 3]
         faces = np.concatenate([f + o for (_, f, _), o in zip(pieces, offsets)])
         if np.linalg.det(world[:3, :3]) < 0:
             faces = faces[:, ::-1]

@@ -468,13 +468,15 @@ def _allowed_pairs(ctx, tables, names):
 
 def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
           outputs: list = (), robot: dict | None = None, allow: list = (),
-          check: dict | None = None, max_triangles: int | None = None,
-          max_samples: int | None = None, max_parts: int | None = None):
-    """The top-level table: an :class:`~cadpipe.Assembly`, its outputs and its cell."""
+          check: dict | None = None, **budgets):
+    """The top-level table: an :class:`~cadpipe.Assembly`, its outputs and its cell.
+
+    ``budgets``: a key per :data:`cadpipe.limits.SPEC_KEYS` (see :func:`_with_budget_keys`).
+    """
     from cadpipe.solids.assembly import Assembly
 
-    given = {"max_triangles": max_triangles, "max_samples": max_samples, "max_parts": max_parts}
-    budgets = {k: v for k, v in {**given, **ctx.budgets}.items() if v is not None}
+    budgets = {k: v for k, v in {**limits.checked(budgets), **ctx.budgets}.items()
+               if v is not None}
     if not parts and robot is None:
         raise InputError("expected at least one part", key="parts")
     with limits.using(**budgets):
@@ -492,6 +494,24 @@ def _spec(ctx, *, parts: list = (), name: str | None = None, units: str = "m",
     return Spec(ctx.file, assembly, tuple(made), cell, part_keys, budgets)
 
 
+def _with_budget_keys(func):
+    """``func`` with its ``**budgets`` replaced by one optional key per budget a spec
+    may set (:data:`cadpipe.limits.SPEC_KEYS`), typed as the budget's default: the
+    keys follow :class:`cadpipe.limits.Limits`, so a new budget is a spec key without
+    an edit here."""
+    signature = inspect.signature(func, eval_str=True)
+    keys = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None,
+                              annotation=(Number if isinstance(getattr(limits.Limits(), name),
+                                                               float) else int) | None)
+            for name in limits.SPEC_KEYS]
+    func.__signature__ = signature.replace(parameters=[
+        *(p for p in signature.parameters.values() if p.kind is not p.VAR_KEYWORD), *keys])
+    return func
+
+
+_with_budget_keys(_spec)
+
+
 def read(spec_path, *, data=None, output_folder=None, **budgets):
     """Read a TOML or JSON spec into a :class:`Spec` (assembly, outputs and cell).
 
@@ -506,21 +526,20 @@ def read(spec_path, *, data=None, output_folder=None, **budgets):
     output_folder : str or path, optional
         Where the spec's ``outputs`` are written (default: the spec's folder); a
         spec cannot name a file outside it.
-    **budgets : int, optional
-        ``max_triangles``, ``max_samples``, ``max_parts``: limits for this spec
-        (see :class:`cadpipe.limits.Limits`), over the spec's own keys of those names.
+    **budgets : int or float, optional
+        Any budget of :class:`cadpipe.limits.Limits` (``max_triangles=``,
+        ``max_depth=``, ...) for reading and building this spec, over the spec's own
+        keys of those names.
 
     Raises :class:`SpecError` naming the file, the key path and what was expected,
     and :class:`~cadpipe.errors.LimitError` for a spec asking for too much work.
     """
     file = FilePath(spec_path)
-    unknown = set(budgets) - {"max_triangles", "max_samples", "max_parts"}
-    if unknown:
-        raise InputError("unknown option; expected data, output_folder, max_triangles, "
-                         "max_samples or max_parts", key=sorted(unknown)[0])
+    budgets = {k: v for k, v in limits.checked(budgets).items() if v is not None}
     try:
-        return SpecContext(file, output_folder, budgets).call(
-            _spec, _parse(file) if data is None else data)
+        with limits.using(**budgets):
+            return SpecContext(file, output_folder, budgets).call(
+                _spec, _parse(file) if data is None else data)
     except CadpipeError as exc:
         raise exc.at(file=file) from exc.__cause__
 
@@ -533,8 +552,8 @@ def load(spec_path: str | os.PathLike, **options: typing.Any) -> "Assembly":
     spec_path : str or path-like
         The ``.toml`` or ``.json`` file (docs/spec.md).
     **options
-        As for :func:`read`: ``output_folder``, ``max_triangles``, ``max_samples``,
-        ``max_parts``.
+        As for :func:`read`: ``output_folder`` and any budget of
+        :class:`cadpipe.limits.Limits` (``max_triangles=``, ...).
 
     Returns
     -------

@@ -32,6 +32,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.errors import ExportError, MeshError
 from cadpipe.io.scene import TO_Y_UP, as_scene, printable
@@ -71,15 +72,15 @@ def save_stage(stage, path):
     with atomic_path(path) as tmp:
         if kind != "usdz":
             if not stage.GetRootLayer().Export(str(tmp)):
-                raise ExportError(f"{path}: usd-core could not write the layer")
+                raise ExportError("usd-core could not write the layer", file=path)
             return
         # a .usdz is a zip of a root layer: write that as .usdc, then let usd-core package it
         with tempfile.TemporaryDirectory(prefix="cadpipe-usdz-") as folder:
             root = FilePath(folder) / (FilePath(path).stem + ".usdc")
             if not stage.GetRootLayer().Export(str(root)):
-                raise ExportError(f"{path}: usd-core could not write the layer to package")
+                raise ExportError("usd-core could not write the layer to package", file=path)
             if not UsdUtils.CreateNewARKitUsdzPackage(Sdf.AssetPath(str(root)), str(tmp)):
-                raise ExportError(f"{path}: usd-core could not package the .usdz")
+                raise ExportError("usd-core could not package the .usdz", file=path)
 
 
 def build_stage(scene, *, crease_angle=DEFAULT_CREASE_ANGLE, up_axis=None, normals=True):
@@ -280,7 +281,7 @@ def read_usd(path):
     units = next((k for k, v in UNITS.items() if np.isclose(v, mpu)), None)
     scale = 1.0 if units else mpu
     turn = TO_Y_UP["Z"].T if UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y else np.eye(3)
-    parts, colors, taken = [], {}, set()
+    parts, colors, taken, triangles = [], {}, set(), 0
     for prim in stage.Traverse():
         if not prim.IsA(UsdGeom.Mesh):
             continue
@@ -290,6 +291,8 @@ def read_usd(path):
         indices = np.asarray(geom.GetFaceVertexIndicesAttr().Get() or [], dtype=np.int64)
         if len(counts) == 0 or counts.sum() != len(indices) or (counts < 3).any():
             continue
+        triangles += int((counts - 2).sum())      # checked before the fans are made
+        limits.check("max_triangles", triangles, "reading this USD file", file=path)
         faces, polygon = fan_triangles(counts, indices)
         world = np.array(geom.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
         vertices = (points @ world[:3, :3].T + world[:3, 3]) @ (turn * scale).T

@@ -76,8 +76,8 @@ def write_trajectory_usd(path, robot, configurations, times=None, fps=24.0, extr
     from cadpipe.io.usd import build_stage, save_stage
 
     if suffix_of(path) not in ("usda", "usdc", "usdz"):
-        raise InputError(f"{path}: an animation is written as .usda, .usdc or .usdz",
-                         key="path")
+        raise InputError("an animation is written as .usda, .usdc or .usdz",
+                         key="path", file=path)
     q, codes = trajectory_frames(robot, configurations, times, fps)
     poses = robot.link_pose_array(q, base)                        # (F, L, 4, 4)
     parts = [ScenePart(link, mesh, transform=poses[0, k])

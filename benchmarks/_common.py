@@ -1,0 +1,65 @@
+"""What the robot benchmarks share: interleaved timing and the python-fcl loop peer.
+
+``bench_collision.py`` (one state at a time) and ``bench_motion.py`` (motions and
+planning) time cadpipe against the same 15-line python-fcl loop of issue 11; it
+lives here once so both measure the same peer.
+"""
+
+import time
+
+import fcl
+import numpy as np
+
+from cadpipe import Pipe
+from cadpipe.collision.bodies import as_body
+
+
+def interleaved(runs, repeat):
+    """Median seconds of each of ``runs`` (name -> callable), timed A B A B ... after
+    one untimed round (caches, lazily built trees, JIT compilation); and each run's
+    last result."""
+    results = {name: run() for name, run in runs.items()}
+    times = {name: [] for name in runs}
+    for _ in range(repeat):
+        for name, run in runs.items():
+            start = time.perf_counter()
+            results[name] = run()
+            times[name].append(time.perf_counter() - start)
+    return {name: float(np.median(t)) for name, t in times.items()}, results
+
+
+def fcl_object(mesh):
+    bvh = fcl.BVHModel()
+    bvh.beginModel(len(mesh.vertices), len(mesh.faces))
+    bvh.addSubModel(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int64))
+    bvh.endModel()
+    return fcl.CollisionObject(bvh, fcl.Transform())
+
+
+def obstacle_mesh(obj):
+    return obj.mesh() if isinstance(obj, Pipe) else as_body(obj, "x").mesh
+
+
+class FclLoop:
+    """The python-fcl loop a user writes (issue 11): FK, then the robot's pairs (self
+    pairs not allowed, links against obstacles) until the first hit."""
+
+    def __init__(self, robot, obstacles, allowed):
+        self.robot, self.links = robot, list(robot.link_meshes)
+        self.objects = {n: fcl_object(m) for n, m in robot.link_meshes.items()}
+        for name, (obj, pose) in obstacles.items():
+            self.objects[name] = o = fcl_object(obstacle_mesh(obj))
+            o.setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        names = self.links + list(obstacles)
+        self.pairs = [(self.objects[a], self.objects[b]) for i, a in enumerate(names)
+                      for b in names[i + 1:] if frozenset((a, b)) not in allowed
+                      and (a in robot.link_meshes or b in robot.link_meshes)]
+        self.request = fcl.CollisionRequest()
+
+    def __call__(self, q):
+        for link, pose in zip(self.links, self.robot.link_pose_array(q)[0]):
+            self.objects[link].setTransform(fcl.Transform(pose[:3, :3], pose[:3, 3]))
+        for a, b in self.pairs:
+            if fcl.collide(a, b, self.request, fcl.CollisionResult()):
+                return True
+        return False
