@@ -96,7 +96,7 @@ def test_box_pairs_match_brute_force(boxes, seed):
     rng = np.random.default_rng(seed)
     lo = rng.uniform(0, 10, (boxes, 3))
     hi = lo + rng.uniform(0, 2, (boxes, 3))
-    found = [tuple(sorted(p)) for chunk in box_pairs(lo, hi) for p in chunk.tolist()]
+    found = [tuple(sorted(p)) for p in box_pairs(lo, hi).tolist()]
     overlap = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
     expected = {(i, j) for i, j in zip(*np.nonzero(np.triu(overlap, 1)))}
     assert len(found) == len(set(found)) and set(found) == expected

@@ -22,6 +22,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe._rows import point_keys, unique_rows
 from cadpipe.errors import ExportError, InputError, MeshError
 from cadpipe.io.registry import exporters
 
@@ -231,7 +232,9 @@ def load_scene(path):
 
         scene = read_obj(path)
     else:
-        scene = _trimesh_scene(path, key)
+        from cadpipe.io.stl import read_binary_stl
+
+        scene = (read_binary_stl(path) if key == "stl" else None) or _trimesh_scene(path, key)
     limits.check("max_triangles", sum(len(p.mesh.faces) for p in scene.parts),
                  "this mesh file", file=path)
     return replace(scene, parts=tuple(replace(p, mesh=welded(p.mesh)) for p in scene.parts))
@@ -259,18 +262,17 @@ def welded(mesh):
     """``mesh`` with duplicate vertices (equal to 8 decimals) made one.
 
     Files store a vertex once per triangle (STL) or once per normal or colour
-    (GLB, PLY); the solid is the same surface with shared corners.
+    (GLB, PLY); the solid is the same surface with shared corners. The vertices
+    keep their first-seen order.
     """
     from cadpipe.geometry.mesh import Mesh
 
     rows = np.ascontiguousarray(mesh.vertices)
-    # keyed to 8 decimals, as trimesh's merge_vertices: text formats round, -0.0 is 0.0
-    rounded = np.ascontiguousarray(np.round(rows, 8) + 0.0)
-    keys = rounded.view(np.dtype((np.void, rounded.itemsize * 3))).ravel()
-    unique, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    if len(unique) == len(rows):
+    # keyed to 8 decimals, as trimesh's merge_vertices: text formats round
+    first, inverse = unique_rows(point_keys(rows, 8))
+    if len(first) == len(rows):
         return mesh
-    return Mesh.trusted(rows[first], inverse.ravel()[mesh.faces], face_part=mesh.face_part,
+    return Mesh.trusted(rows[first], inverse[mesh.faces], face_part=mesh.face_part,
                         part_names=mesh.part_names, attributes=mesh.attributes)
 
 
@@ -334,7 +336,10 @@ def _face_colour_labels(tm, name):
         rgb = np.asarray(tm.visual.face_colors)[:, :3]
     else:
         return None, (), ()
-    colours, labels = np.unique(rgb, axis=0, return_inverse=True)
+    # one integer per colour: a sort of ints, not of 3-byte rows
+    packed = (rgb[:, 0].astype(np.int32) << 16) | (rgb[:, 1].astype(np.int32) << 8) | rgb[:, 2]
+    codes, labels = np.unique(packed, return_inverse=True)
+    colours = np.stack([codes >> 16, (codes >> 8) & 255, codes & 255], axis=1)
     names = tuple(f"{name}_{r:02x}{g:02x}{b:02x}" for r, g, b in colours)
     return labels.ravel(), names, [tuple(v / 255.0 for v in c) for c in colours.tolist()]
 

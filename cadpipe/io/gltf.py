@@ -72,20 +72,19 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normal
         if normals:
             vertices, faces, shading = split_for_normals(painted.mesh, crease_angle)
         else:
-            vertices, faces = painted.mesh.vertices, painted.mesh.faces
+            vertices = painted.mesh.vertices.astype(np.float32)
+            faces = painted.mesh.faces.astype(np.uint32)
         name = unique_name(part.name, node_names)
-        attributes = {"POSITION": doc.accessor(vertices.astype(np.float32), "VEC3",
-                                               _ARRAY_BUFFER, bounds=True)}
+        attributes = {"POSITION": doc.accessor(vertices, "VEC3", _ARRAY_BUFFER, bounds=True)}
         if normals:
-            attributes["NORMAL"] = doc.accessor(shading.astype(np.float32), "VEC3",
-                                                _ARRAY_BUFFER)
+            attributes["NORMAL"] = doc.accessor(shading, "VEC3", _ARRAY_BUFFER)
         primitives = []
-        for label_group, rgb in _colour_groups(painted):
-            picked = faces[np.isin(painted.labels, label_group)]
+        groups = _colour_groups(painted)
+        for label_group, rgb in groups:
+            picked = faces if len(groups) == 1 else faces[np.isin(painted.labels, label_group)]
             primitives.append({
                 "attributes": attributes,
-                "indices": doc.accessor(picked.astype(np.uint32).ravel(), "SCALAR",
-                                        _ELEMENT_ARRAY_BUFFER),
+                "indices": doc.accessor(picked.ravel(), "SCALAR", _ELEMENT_ARRAY_BUFFER),
                 "material": doc.material(painted.names[label_group[0]], rgb),
                 "mode": 4})
         doc.meshes.append({"name": name, "primitives": primitives})

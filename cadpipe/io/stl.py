@@ -9,10 +9,12 @@ facet normals are computed from those float32 corners, so each record's normal
 matches the triangle the file actually holds.
 """
 
+from pathlib import Path as FilePath
+
 import numpy as np
 
 from cadpipe.io.scene import as_scene
-from cadpipe.io.files import atomic_path
+from cadpipe.io.files import atomic_path, file_mesh
 from cadpipe.io.flatten import flatten
 
 _RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
@@ -83,3 +85,27 @@ def _ascii(records):
              "  vertex {:.9g} {:.9g} {:.9g}\n  vertex {:.9g} {:.9g} {:.9g}\n"
              "  vertex {:.9g} {:.9g} {:.9g}\n endloop\nendfacet\n")
     return (facet * len(rows)).format(*rows.ravel().tolist())
+
+
+def read_binary_stl(path):
+    """A binary STL file as a one-part :class:`~cadpipe.io.scene.Scene` in millimetres
+    (as slicers read STL; ``units_assumed``), or None when it is not binary STL (its
+    size is not 84 + 50 bytes per triangle): ASCII STL is left to trimesh.
+
+    The records are read straight into numpy; every corner is its own vertex
+    until :func:`~cadpipe.io.files.welded` joins them.
+    """
+    from cadpipe.io.scene import Scene, ScenePart
+
+    path = FilePath(path)
+    size = path.stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(84)
+        if len(head) < 84 or size != 84 + 50 * int(np.frombuffer(head[80:84], "<u4")[0]):
+            return None
+        records = np.fromfile(fh, dtype=_RECORD)
+    vertices = records["corners"].reshape(-1, 3)
+    faces = np.arange(len(vertices), dtype=np.int64).reshape(-1, 3)
+    mesh = file_mesh(vertices, faces, path, path.stem,
+                     attributes={"source": str(path), "units": "mm", "units_assumed": True})
+    return Scene(name=path.stem, parts=(ScenePart(path.stem, mesh),), units="mm")

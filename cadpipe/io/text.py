@@ -82,3 +82,10 @@ def float32_decimal(values):
         exponent[fix] += shift
         mantissa[fix] = np.rint(x[fix] / 10.0 ** exponent[fix]).astype(np.int64)
     return mantissa, exponent
+
+
+def float32_columns(points):
+    """(N, 6) int64: mantissa and exponent of x, y and z of ``points`` (N, 3), side by
+    side as the row templates of vertex lines want them (see :func:`float32_decimal`)."""
+    mantissa, exponent = float32_decimal(points)
+    return np.stack([mantissa, exponent], axis=2).reshape(-1, 6)

@@ -33,7 +33,7 @@ from cadpipe.geometry.mesh import merge_tables
 from cadpipe.io.scene import as_scene
 from cadpipe.io.files import atomic_path, unique_name
 from cadpipe.io.flatten import labelled
-from cadpipe.io.text import ascii_rows, float32_decimal
+from cadpipe.io.text import ascii_rows, float32_columns
 
 #: 3MF's names for cadpipe's scene units
 UNIT_NAMES = {"m": "meter", "cm": "centimeter", "mm": "millimeter", "in": "inch",
@@ -120,23 +120,24 @@ def _model_xml(scene, unit, parts):
         mesh = painted.mesh
         yield (f'<object id="{object_id}" type="model" name={quoteattr(name)} pid="1" '
                f'pindex="{pindex}">\n<mesh>\n<vertices>\n').encode()
-        mantissa, exponent = float32_decimal(mesh.vertices)
-        yield from _rows(_VERTEX, np.stack([mantissa, exponent], axis=2).reshape(-1, 6))
+        yield from _rows(_VERTEX, mesh.vertices, prepare=float32_columns)
         yield b"</vertices>\n<triangles>\n"
         if len(base) == 1:
             yield from _rows(_TRIANGLE, mesh.faces)
         else:
-            yield from _rows(_TRIANGLE_COLORED, np.column_stack([mesh.faces,
-                                                                base[painted.labels]]))
+            yield from _rows(_TRIANGLE_COLORED, mesh.faces, base[painted.labels])
         yield b"</triangles>\n</mesh>\n</object>\n"
     items = "".join(f'<item objectid="{i}"/>\n' for i in range(2, len(parts) + 2))
     yield f"</resources>\n<build>\n{items}</build>\n</model>\n".encode()
 
 
-def _rows(template, table):
-    """``template`` (see :func:`ascii_rows`) filled from ``table``, ``_CHUNK`` rows at a time."""
-    for start in range(0, len(table), _CHUNK):
-        yield ascii_rows(template, table[start:start + _CHUNK])
+def _rows(template, *tables, prepare=None):
+    """``template`` (see :func:`ascii_rows`) filled from the columns of ``tables`` side by
+    side, ``_CHUNK`` rows at a time, each chunk through ``prepare`` first: no
+    full-size table of text columns is made."""
+    for start in range(0, len(tables[0]), _CHUNK):
+        block = np.column_stack([t[start:start + _CHUNK] for t in tables])
+        yield ascii_rows(template, block if prepare is None else prepare(block))
 
 
 def _hex(rgb):

@@ -16,15 +16,20 @@ Numbers are float32 with 9 significant digits written as an integer mantissa
 and exponent (:func:`cadpipe.io.text.float32_decimal`).
 """
 
+import re
+import warnings
+from functools import partial
 from pathlib import Path as FilePath
 
+import numba
 import numpy as np
 
 from cadpipe.errors import MeshError
 from cadpipe.io.files import atomic_path, file_mesh, unique_name
 from cadpipe.io.flatten import flatten, labelled
 from cadpipe.io.scene import as_scene
-from cadpipe.io.text import ascii_rows, float32_decimal
+from cadpipe.io.text import ascii_rows, float32_columns
+from cadpipe.io.usd import fan_triangles
 
 _OBJ_VERTEX = (b"v ", 0, b"e", 1, b" ", 2, b"e", 3, b" ", 4, b"e", 5, b"\n")
 _OBJ_FACE = (b"f ", 0, b" ", 1, b" ", 2, b"\n")
@@ -51,16 +56,19 @@ def write_obj(obj, path, *, units="m"):
             painted = labelled(scene, part, world=True, scale=scale)
             mesh = painted.mesh
             fh.write(f"o {_obj_name(part.name)}\n".encode())
-            _write_rows(fh, _OBJ_VERTEX, mesh.vertices, _decimal)
-            order = np.argsort(painted.labels, kind="stable")
-            starts = np.searchsorted(painted.labels[order], np.arange(len(painted.names) + 1))
-            for label, name in enumerate(painted.names):
-                faces = mesh.faces[order[starts[label]:starts[label + 1]]]
-                if len(faces) == 0:
-                    continue
-                if len(painted.names) > 1:
+            _write_rows(fh, _OBJ_VERTEX, mesh.vertices, float32_columns)
+            if len(painted.names) == 1:
+                _write_rows(fh, _OBJ_FACE, mesh.faces, partial(np.add, offset))
+            else:        # a group per label: its faces gathered a block at a time
+                order = np.argsort(painted.labels, kind="stable")
+                starts = np.searchsorted(painted.labels[order],
+                                         np.arange(len(painted.names) + 1))
+                for label, name in enumerate(painted.names):
+                    if starts[label] == starts[label + 1]:
+                        continue
                     fh.write(f"g {_obj_name(name)}\n".encode())
-                _write_rows(fh, _OBJ_FACE, faces + offset)
+                    _write_rows(fh, _OBJ_FACE, order[starts[label]:starts[label + 1]],
+                                partial(_faces_from, mesh.faces, offset))
             offset += len(mesh.vertices)
 
 
@@ -97,7 +105,7 @@ def write_ply(obj, path, *, ascii=False, units="m"):
         fh.write(header.encode())
         if ascii:
             _write_rows(fh, _PLY_VERTEX, np.column_stack([vertices, vertex_label]),
-                        lambda rows: np.column_stack([_decimal(rows[:, :3]),
+                        lambda rows: np.column_stack([float32_columns(rows[:, :3]),
                                                       rgb[rows[:, 3].astype(np.int64)]]))
             _write_rows(fh, _PLY_FACE, np.column_stack([faces, rgb[painted.labels]]))
             return
@@ -116,10 +124,9 @@ def write_ply(obj, path, *, ascii=False, units="m"):
             fh.write(block.tobytes())
 
 
-def _decimal(vertices):
-    """(V, 6) int64: mantissa and exponent of x, y and z (see :func:`float32_decimal`)."""
-    mantissa, exponent = float32_decimal(vertices)
-    return np.stack([mantissa, exponent], axis=2).reshape(-1, 6)
+def _faces_from(faces, offset, rows):
+    """Rows ``rows`` of ``faces``, numbered from ``offset`` (OBJ counts from 1 across parts)."""
+    return faces[rows] + offset
 
 
 def _write_rows(fh, template, table, prepare=None):
@@ -138,59 +145,156 @@ def read_obj(path):
     """An OBJ file as a :class:`~cadpipe.io.scene.Scene`: one part per ``o``, its faces
     labelled by ``g``; polygons fanned into triangles, exact duplicate vertices kept
     as written. In metres unless the header says otherwise (cadpipe writes
-    ``# cadpipe: NAME (units: U)``)."""
+    ``# cadpipe: NAME (units: U)``).
+
+    Lines are classified with numpy, and each run of ``v`` or ``f`` lines is parsed
+    by one ``np.fromstring`` call: no Python work per vertex or face.
+    """
     from cadpipe.io.scene import UNITS, Scene, ScenePart
 
-    text = FilePath(path).read_text(encoding="utf-8", errors="replace")
+    data = FilePath(path).read_bytes()
+    if any(mark in data for mark in (b"\n ", b"\n\t")) or data[:1] in (b" ", b"\t"):
+        data = re.sub(rb"(?m)^[ \t]+", b"", data)   # indented lines: classify by their word
+    stem = FilePath(path).stem
+    head = data[:200].decode("utf-8", "replace")
     units = "m"
-    vertices, objects = [], []        # objects: [name, [(group, [polygon, ...])]]
-    for line in text.splitlines():
-        word, _, rest = line.strip().partition(" ")
-        if word == "v":
-            vertices.append(rest.split()[:3])
-        elif word == "f":
+    found = re.search(r"#\s*cadpipe:.*\(units: ([^)\s]+)\)", head)
+    if found:
+        units = found.group(1)
+    vertices, objects = [], []        # objects: [name, [[group, [(counts, corners)]]]]
+    n_vertices = 0
+    try:
+        runs = list(_runs(data))
+    except ValueError:
+        raise MeshError("a v or f line holds something other than numbers",
+                        file=path) from None
+    for kind, value in runs:
+        if kind == b"v":
+            values, per_line = value
+            if (per_line < 3).any():
+                raise MeshError("a vertex line is not three numbers", file=path)
+            if (per_line == 3).all():
+                vertices.append(values.reshape(-1, 3))
+            else:                     # x y z and more (w, or a colour): the first three
+                first = np.concatenate([[0], np.cumsum(per_line)[:-1]])
+                vertices.append(values[first[:, None] + np.arange(3)])
+            n_vertices += len(per_line)
+        elif kind == b"f":
+            corners, counts = value
+            corners = np.where(corners > 0, corners - 1, n_vertices + corners)
             if not objects:
-                objects.append([FilePath(path).stem, []])
+                objects.append([stem, []])
             if not objects[-1][1]:
                 objects[-1][1].append([objects[-1][0], []])
-            corners = [int(c.split("/")[0]) for c in rest.split()]
-            objects[-1][1][-1][1].append([c - 1 if c > 0 else len(vertices) + c
-                                          for c in corners])
-        elif word == "o":
-            objects.append([rest.strip() or "object", []])
-        elif word == "g":
-            if not objects:
-                objects.append([FilePath(path).stem, []])
-            objects[-1][1].append([rest.strip() or objects[-1][0], []])
-        elif word == "#" and rest.startswith("cadpipe:") and "(units: " in rest:
-            units = rest.rsplit("(units: ", 1)[1].rstrip(")").strip()
-    try:
-        points = np.array(vertices, dtype=np.float64).reshape(-1, 3)
-    except ValueError:
-        raise MeshError("a vertex line is not three numbers", file=path) from None
+            objects[-1][1][-1][1].append((counts, corners))
+        else:                         # o and g lines, one at a time (there are few)
+            for line in value.splitlines():
+                word, _, rest = line.decode("utf-8", "replace").strip().partition(" ")
+                if word == "o":
+                    objects.append([rest.strip() or "object", []])
+                elif word == "g":
+                    if not objects:
+                        objects.append([stem, []])
+                    objects[-1][1].append([rest.strip() or objects[-1][0], []])
+    points = np.concatenate(vertices) if vertices else np.empty((0, 3))
     units = units if units in UNITS else "m"
     parts, taken = [], set()
     for name, groups in objects:
-        triangles, labels, names = [], [], []
-        for group, polygons in groups:
-            fanned = [(p[0], p[k], p[k + 1]) for p in polygons for k in range(1, len(p) - 1)]
-            if not fanned:
-                continue
-            if group not in names:
-                names.append(group)
-            triangles += fanned
-            labels += [names.index(group)] * len(fanned)
-        if not triangles:
+        pieces, names = [], []
+        for group, runs in groups:
+            for counts, corners in runs:
+                keep = counts >= 3
+                if not keep.all():       # points and lines hold no triangles
+                    corners = corners[np.repeat(keep, counts)]
+                    counts = counts[keep]
+                if len(counts) == 0:
+                    continue
+                if group not in names:
+                    names.append(group)
+                pieces.append((fan_triangles(counts, corners)[0], names.index(group)))
+        if not pieces:
             continue
-        faces = np.array(triangles, dtype=np.int64)
-        used, faces = np.unique(faces, return_inverse=True)
-        if used.min() < 0 or used.max() >= len(points):
+        faces = np.concatenate([f for f, _ in pieces])
+        labels = np.repeat([k for _, k in pieces], [len(f) for f, _ in pieces])
+        if faces.min() < 0 or faces.max() >= len(points):
             raise MeshError(f"object {name!r}: a face points past the vertices", file=path)
-        mesh = file_mesh(points[used], faces.reshape(-1, 3), path, name, face_part=labels,
+        used = np.zeros(len(points), bool)        # this object's vertices, in file order
+        used[faces] = True
+        faces = (np.cumsum(used) - 1)[faces]
+        mesh = file_mesh(points[used], faces, path, name, face_part=labels,
                          part_names=names, attributes={
                              "source": str(path), "units": units,
-                             "units_assumed": "(units: " not in text[:200]})
+                             "units_assumed": "(units: " not in head})
         parts.append(ScenePart(unique_name(name, taken), mesh))
     if not parts:
         raise MeshError("the file holds no triangles", file=path)
-    return Scene(name=FilePath(path).stem, parts=tuple(parts), units=units)
+    return Scene(name=stem, parts=tuple(parts), units=units)
+
+
+_SPACE = np.zeros(256, bool)
+_SPACE[list(b" \t\r\n\v\f")] = True
+
+
+def _runs(data):
+    """(kind, value) for each run of consecutive lines of one kind: for ``v`` and ``f``
+    lines their numbers and how many each line holds (:func:`_numbers`), for ``o``
+    and ``g`` lines their text; all else (normals, texture coordinates, comments,
+    materials) is skipped."""
+    buf = np.frombuffer(data, np.uint8)
+    starts = np.concatenate([[0], np.flatnonzero(buf == 10) + 1])
+    starts = starts[starts < len(buf)]
+    ends = np.append(starts[1:], len(buf))
+    padded = np.append(buf, [10, 10])
+    first, second = padded[starts], padded[starts + 1]
+    blank2 = _SPACE[second]
+    kind = np.zeros(len(starts), np.int8)          # 0 skip, 1 v, 2 f, 3 o/g/other text
+    kind[(first == ord("v")) & blank2] = 1
+    kind[(first == ord("f")) & blank2] = 2
+    kind[((first == ord("o")) | (first == ord("g"))) & (blank2 | (second == 10))] = 3
+    change = np.flatnonzero(np.diff(kind.astype(np.int16)) != 0) + 1
+    bounds = np.concatenate([[0], change, [len(kind)]])
+    writable = None
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        k = kind[a]
+        if k == 0:
+            continue
+        if k == 3:
+            yield b"o", data[starts[a]:ends[b - 1]]
+            continue
+        if writable is None:
+            writable = bytearray(data)
+        text = np.frombuffer(writable, np.uint8)
+        text[starts[a:b]] = 32                     # blank the keyword of every line
+        chunk = bytes(writable[starts[a]:ends[b - 1]])
+        lines = starts[a:b] - starts[a], ends[b - 1] - starts[a]
+        if k == 1:
+            yield b"v", _numbers(chunk, lines, np.float64)
+        else:
+            yield b"f", _numbers(re.sub(rb"/\S*", b"", chunk), lines, np.int64)
+
+
+def _numbers(text, lines, dtype):
+    """All numbers of ``text`` (one ``np.fromstring``) and how many each line holds."""
+    line_starts, length = lines
+    with warnings.catch_warnings():       # a stray word ends the parse early: caught below
+        warnings.simplefilter("ignore", DeprecationWarning)
+        values = np.fromstring(text, dtype=dtype, sep=" ")
+    per_line = _words_per_line(np.frombuffer(text, np.uint8), line_starts, _SPACE)
+    if len(values) != per_line.sum():
+        raise ValueError("not numbers")
+    return values, per_line
+
+
+@numba.njit(cache=True, nogil=True)
+def _words_per_line(buf, line_starts, space):
+    """(L,) how many blank-separated words each line of ``buf`` holds."""
+    counts = np.zeros(len(line_starts), np.int64)
+    for line in range(len(line_starts)):
+        end = line_starts[line + 1] if line + 1 < len(line_starts) else len(buf)
+        inside = False
+        for i in range(line_starts[line], end):
+            blank = space[buf[i]]
+            if not blank and not inside:
+                counts[line] += 1
+            inside = not blank
+    return counts

@@ -139,38 +139,44 @@ def _matrix(transform):
 
 
 def _define_mesh(stage, prim_path, painted, crease_angle):
+    """The Mesh prim of ``painted``. Each array goes into a ``Vt`` array (a copy, which
+    the layer then shares) as soon as it is made, so the numpy form of at most one
+    array is alive beside the layer's."""
     from pxr import Sdf, UsdGeom, Vt
 
     mesh, colors = painted.mesh, painted.colors
-    points = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+    points = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(mesh.vertices, dtype=np.float32))
     counts = Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32))
     indices = Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel())
     valid, why = UsdGeom.Mesh.ValidateTopology(indices, counts, len(points))
     if not valid:
         raise MeshError(f"{prim_path}: invalid mesh topology for USD ({why})")
     geom = UsdGeom.Mesh.Define(stage, prim_path)
-    geom.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
+    geom.CreatePointsAttr(points)
     geom.CreateFaceVertexCountsAttr(counts)
     geom.CreateFaceVertexIndicesAttr(indices)
-    geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(np.stack([points.min(0), points.max(0)])))
+    del points, counts, indices
+    bounds = np.stack([mesh.vertices.min(0), mesh.vertices.max(0)]).astype(np.float32)
+    geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(bounds))
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
     shading = None if crease_angle is None else shading_normals(mesh, crease_angle)
     if shading is not None and shading.per_vertex:
-        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
+        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals))
         geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
     elif shading is not None:   # creases: indexed (a normal per vertex plus a few per crease)
         primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
             "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
-        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals.astype(np.float32)))
-        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32)))
+        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals))
+        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32,
+                                                                              copy=False)))
     if len(colors) == 1:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
         display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)))
     else:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform)
-        display.Set(Vt.Vec3fArray.FromNumpy(colors[painted.labels].astype(np.float32)))
+        display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)[painted.labels]))
     return geom
 
 
@@ -287,7 +293,7 @@ def read_usd(path):
             continue
         triangles += int((counts - 2).sum())      # checked before the fans are made
         limits.check("max_triangles", triangles, "reading this USD file", file=path)
-        faces, polygon = _fan(counts, indices)
+        faces, polygon = fan_triangles(counts, indices)
         world = np.array(geom.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
         vertices = (points @ world[:3, :3].T + world[:3, 3]) @ (turn * scale).T
         if np.linalg.det(world[:3, :3]) < 0:
@@ -310,8 +316,23 @@ def read_usd(path):
                  colors=MappingProxyType(colors))
 
 
-def _fan(counts, indices):
-    """Polygons as fans of triangles: (T, 3) corner indices and the polygon of each."""
+def fan_triangles(counts, indices):
+    """Polygons as fans of triangles.
+
+    Parameters
+    ----------
+    counts : (P,) int array
+        Corners of each polygon (at least 3).
+    indices : (sum(counts),) int array
+        The polygons' corners, one polygon after the other.
+
+    Returns
+    -------
+    triangles : (T, 3) int array
+        Corner indices, ``counts - 2`` triangles per polygon.
+    polygon : (T,) int array
+        The polygon each triangle came from.
+    """
     polygon = np.repeat(np.arange(len(counts)), counts - 2)
     first = np.concatenate([[0], np.cumsum(counts)[:-1]])[polygon]
     k = np.arange(len(polygon)) - np.repeat(np.cumsum(counts - 2) - (counts - 2), counts - 2)

@@ -1,12 +1,14 @@
 """Faces of a mesh that cut through each other (self-intersections).
 
-Broad phase: an implicit bounding-volume hierarchy. Triangles are sorted along
-a Morton (Z-order) curve and grouped into leaves of :data:`LEAF` triangles;
-level ``k`` node ``i`` covers leaves ``[i * 2**k, (i + 1) * 2**k)``, so the tree
-is a list of box arrays, one per level. Overlapping node pairs are expanded
-level by level, one numpy operation per level for all pairs at once.
-(rtree's bulk query spends ~30 us per triangle in Python-facing calls: a
-minute for a million triangles; this takes seconds.)
+Broad phase: a bounding-volume hierarchy over the triangles. They are sorted
+along a Morton (Z-order) curve and grouped into leaves of :data:`LEAF`
+triangles; the tree is a complete binary tree in heap order (node ``k`` has
+children ``2k`` and ``2k + 1``, the leaves are the last ``L`` nodes), built
+level by level in numpy. Each leaf is then queried against the tree in one
+compiled loop (numba, like the collision kernels), which tests the triangle
+pairs of overlapping leaves as it finds them: a million triangles take about a
+second, where a level-by-level numpy expansion of every node pair spent most of
+its time gathering boxes of pairs that share a vertex.
 
 Narrow phase: two triangles that share no vertex intersect when an edge of
 one passes through the interior of the other. Touching (within
@@ -14,39 +16,27 @@ one passes through the interior of the other. Touching (within
 share a vertex or coplanar overlaps (those show up as non-manifold edges).
 """
 
+import numba
 import numpy as np
 
 from cadpipe.solids.booleans import float32_step
 
 #: triangles per leaf of the hierarchy
 LEAF = 4
-#: leaf pairs expanded into triangle pairs at once (bounds memory)
-_BLOCK = 1 << 15
+
+_jit = numba.njit(cache=True, nogil=True)
 
 
 def self_intersections(mesh):
-    """(K, 2) int array of face index pairs ``i < j`` whose triangles cut through each other."""
+    """(K, 2) int array of face index pairs ``i < j`` whose triangles cut through each other,
+    sorted by ``i`` then ``j``."""
     faces = mesh.faces
     if len(faces) < 2:
         return np.empty((0, 2), np.int64)
-    tri = mesh.triangles
-    tol = touching_tolerance(mesh)
-    found = []
-    for pairs in box_pairs(tri.min(axis=1), tri.max(axis=1)):
-        shared = (faces[pairs[:, 0]][:, :, None] == faces[pairs[:, 1]][:, None, :]).any(axis=(1, 2))
-        pairs = pairs[~shared]
-        a, b = tri[pairs[:, 0]], tri[pairs[:, 1]]
-        na, nb = mesh.face_normals[pairs[:, 0]], mesh.face_normals[pairs[:, 1]]
-        # signed distances of each triangle's corners from the other's plane; a
-        # triangle wholly on one side of the other's plane cannot cut it (most pairs)
-        db = np.einsum("pkc,pc->pk", b - a[:, :1], na)
-        da = np.einsum("pkc,pc->pk", a - b[:, :1], nb)
-        keep = _straddles(da, tol) & _straddles(db, tol)
-        pairs, a, b, na, nb, da, db = (x[keep] for x in (pairs, a, b, na, nb, da, db))
-        hit = _edges_pierce(b, db, a, na, tol) | _edges_pierce(a, da, b, nb, tol)
-        found.append(pairs[hit])
-    found = np.concatenate(found) if found else np.empty((0, 2), np.int64)
-    found = np.sort(found, axis=1)
+    tri = np.ascontiguousarray(mesh.triangles)
+    tree = _Tree(*_triangle_boxes(tri))
+    found = _traverse(*tree.arrays(), True, tri, np.ascontiguousarray(faces),
+                      np.ascontiguousarray(mesh.face_normals), touching_tolerance(mesh))
     return found[np.lexsort((found[:, 1], found[:, 0]))]
 
 
@@ -62,89 +52,195 @@ def touching_tolerance(mesh):
     return tol
 
 
-def _straddles(d, tol):
-    """(P,) True where the three signed distances ``d`` (P, 3) are not all on one side."""
-    return ~((d > tol).all(axis=1) | (d < -tol).all(axis=1))
-
-
-def _edges_pierce(edges_of, d, target, normal, tol):
-    """(P,) True where an edge of triangle ``edges_of`` crosses the interior of ``target``.
-
-    ``edges_of``, ``target``: (P, 3, 3) triangles; ``d``: (P, 3) signed distances of
-    ``edges_of``'s corners from the plane of ``target``; ``normal``: (P, 3) unit
-    normals of ``target``.
-    """
-    start, end = edges_of, np.roll(edges_of, -1, axis=1)            # (P, 3, 3) edges
-    d_start, d_end = d, np.roll(d, -1, axis=1)
-    crosses = ((d_start > tol) & (d_end < -tol)) | ((d_start < -tol) & (d_end > tol))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(crosses, d_start / (d_start - d_end), 0.0)
-    point = start + t[..., None] * (end - start)                    # (P, 3 edges, 3)
-    # the crossing point must lie inside the target, beyond tol from each of its sides
-    u = target[:, None, :, :]                                      # (P, 1, 3 sides, 3)
-    side = np.roll(target, -1, axis=1)[:, None] - u
-    inward = np.einsum("pesc,pc->pes", np.cross(side, point[:, :, None, :] - u), normal)
-    length = np.linalg.norm(side, axis=-1)
-    inside = (inward > tol * length).all(axis=2)
-    return (crosses & inside).any(axis=1)
-
-
 def box_pairs(lo, hi):
-    """Yield (M, 2) arrays of index pairs ``i != j`` of boxes that overlap (each pair once).
+    """(M, 2) int array of index pairs ``i != j`` of boxes that overlap, each pair once.
 
     ``lo``, ``hi``: (N, 3) box corners. Touching boxes count as overlapping.
     """
-    n = len(lo)
-    order = np.argsort(_morton((lo + hi) / 2), kind="stable")
-    n_leaves = 1 << int(np.ceil(np.log2(max(1, -(-n // LEAF)))))
-    size = n_leaves * LEAF
-    # padding boxes are empty (lo = +inf, hi = -inf): they overlap nothing
-    sorted_lo = np.full((3, size), np.inf)
-    sorted_hi = np.full((3, size), -np.inf)
-    sorted_lo[:, :n], sorted_hi[:, :n] = lo[order].T, hi[order].T
-    levels = [(sorted_lo.reshape(3, n_leaves, LEAF).min(axis=2),
-               sorted_hi.reshape(3, n_leaves, LEAF).max(axis=2))]
-    while levels[-1][0].shape[1] > 1:
-        below_lo, below_hi = levels[-1]
-        levels.append((np.minimum(below_lo[:, 0::2], below_lo[:, 1::2]),
-                       np.maximum(below_hi[:, 0::2], below_hi[:, 1::2])))
-    children = np.array([[0, 0], [0, 1], [1, 0], [1, 1]])
-    nodes = np.zeros((1, 2), np.int64)                              # (root, root)
-    for level_lo, level_hi in reversed(levels[:-1]):
-        nodes = (2 * nodes[:, None, :] + children).reshape(-1, 2)
-        nodes = nodes[nodes[:, 0] <= nodes[:, 1]]
-        nodes = _overlapping(level_lo, level_hi, nodes)
-    slots = np.stack(np.meshgrid(np.arange(LEAF), np.arange(LEAF), indexing="ij"),
-                     axis=-1).reshape(-1, 2)
-    for start in range(0, len(nodes), _BLOCK):
-        leaves = nodes[start:start + _BLOCK]
-        pairs = (leaves[:, None, :] * LEAF + slots).reshape(-1, 2)
-        pairs = pairs[(pairs[:, 0] < pairs[:, 1]) & (pairs[:, 1] < n)]
-        pairs = _overlapping(sorted_lo, sorted_hi, pairs)
-        if len(pairs):
-            yield order[pairs]
+    if len(lo) < 2:
+        return np.empty((0, 2), np.int64)
+    none = np.empty((0, 3, 3))
+    return _traverse(*_Tree(lo, hi).arrays(), False, none, np.empty((0, 3), np.int64),
+                     np.empty((0, 3)), 0.0)
 
 
-def _overlapping(lo, hi, pairs):
-    """The rows of ``pairs`` whose boxes overlap, testing one axis at a time.
-
-    ``lo``, ``hi``: (3, N) per-axis box bounds. Each axis drops most pairs that
-    fail, so the later axes gather far fewer values.
-    """
-    for axis in range(3):
-        a, b = pairs[:, 0], pairs[:, 1]
-        low, high = lo[axis], hi[axis]
-        pairs = pairs[(low[a] <= high[b]) & (low[b] <= high[a])]
-    return pairs
-
-
-def _morton(points):
-    """Z-order curve key of each point (21 bits per axis over the points' bounds)."""
-    low, span = points.min(axis=0), np.ptp(points, axis=0)
-    cells = ((points - low) / np.where(span > 0, span, 1.0) * (2**21 - 1)).astype(np.uint64)
-    key = np.zeros(len(points), np.uint64)
-    for bit in range(21):
+@_jit
+def _triangle_boxes(tri):
+    """(F, 3) lower and upper corners of the triangles ``tri`` (F, 3, 3)."""
+    lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
+    for f in range(len(tri)):
         for axis in range(3):
-            key |= ((cells[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit
-                                                                                    + axis)
+            lo[f, axis] = min(tri[f, 0, axis], tri[f, 1, axis], tri[f, 2, axis])
+            hi[f, axis] = max(tri[f, 0, axis], tri[f, 1, axis], tri[f, 2, axis])
+    return lo, hi
+
+
+class _Tree:
+    """The hierarchy of boxes ``lo``, ``hi`` (N, 3): Morton order, heap-ordered node boxes."""
+
+    def __init__(self, lo, hi):
+        lo, hi = np.ascontiguousarray(lo, np.float64), np.ascontiguousarray(hi, np.float64)
+        self.n = n = len(lo)
+        self.order = np.argsort(_morton(lo, hi), kind="stable")
+        leaves = 1 << int(np.ceil(np.log2(max(1, -(-n // LEAF)))))
+        self.lo, self.hi, self.node_lo, self.node_hi = _build(lo, hi, self.order, leaves)
+
+    def arrays(self):
+        return self.node_lo, self.node_hi, self.lo, self.hi, self.order, self.n
+
+
+@_jit
+def _build(lo, hi, order, leaves):
+    """Boxes in Morton order, padded to ``leaves * LEAF`` with empty boxes (lo = +inf,
+    hi = -inf: they overlap nothing), and the node boxes, leaves first, then each
+    level from the one below."""
+    size = leaves * LEAF
+    sorted_lo, sorted_hi = np.full((size, 3), np.inf), np.full((size, 3), -np.inf)
+    node_lo, node_hi = np.full((2 * leaves, 3), np.inf), np.full((2 * leaves, 3), -np.inf)
+    for i in range(len(order)):
+        leaf = leaves + i // LEAF
+        for axis in range(3):
+            sorted_lo[i, axis], sorted_hi[i, axis] = lo[order[i], axis], hi[order[i], axis]
+            node_lo[leaf, axis] = min(node_lo[leaf, axis], sorted_lo[i, axis])
+            node_hi[leaf, axis] = max(node_hi[leaf, axis], sorted_hi[i, axis])
+    for node in range(leaves - 1, 0, -1):
+        for axis in range(3):
+            node_lo[node, axis] = min(node_lo[2 * node, axis], node_lo[2 * node + 1, axis])
+            node_hi[node, axis] = max(node_hi[2 * node, axis], node_hi[2 * node + 1, axis])
+    return sorted_lo, sorted_hi, node_lo, node_hi
+
+
+@_jit
+def _overlap(lo, hi, a, blo, bhi, b):
+    for axis in range(3):
+        if lo[a, axis] > bhi[b, axis] or blo[b, axis] > hi[a, axis]:
+            return False
+    return True
+
+
+@_jit
+def _traverse(node_lo, node_hi, lo, hi, order, n, narrow, tri, faces, normals, tol):
+    """Overlapping box pairs (original indices), or with ``narrow`` the crossing
+    triangle pairs among them ``(min, max)``: the tree against itself, node pairs
+    ``a <= b`` of one level at a time, so each pair is met once."""
+    leaves = len(node_lo) // 2
+    out = np.empty((1024, 2), np.int64)
+    count = 0
+    stack = np.empty((256, 3), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2] = 1, 1, leaves    # node a, node b, leaves under each
+    top = 1
+    while top:
+        top -= 1
+        a, b, span = stack[top, 0], stack[top, 1], stack[top, 2]
+        if a != b and not _overlap(node_lo, node_hi, a, node_lo, node_hi, b):
+            continue
+        if span > 1:
+            for ca in range(2 * a, 2 * a + 2):
+                for cb in range(max(ca, 2 * b), 2 * b + 2):
+                    stack[top, 0], stack[top, 1], stack[top, 2] = ca, cb, span // 2
+                    top += 1
+            continue
+        first, second = (a - leaves) * LEAF, (b - leaves) * LEAF
+        for i in range(first, min(n, first + LEAF)):
+            for j in range(i + 1 if a == b else second, min(n, second + LEAF)):
+                if not _overlap(lo, hi, i, lo, hi, j):
+                    continue
+                p, q = order[i], order[j]
+                if narrow:
+                    if not _cross(tri, faces, normals, tol, p, q):
+                        continue
+                    p, q = min(p, q), max(p, q)
+                if count == len(out):
+                    grown = np.empty((2 * len(out), 2), np.int64)
+                    grown[:count] = out
+                    out = grown
+                out[count, 0], out[count, 1] = p, q
+                count += 1
+    return out[:count].copy()
+
+
+@_jit
+def _cross(tri, faces, normals, tol, a, b):
+    """Do triangles ``a`` and ``b`` (sharing no vertex) cut through each other?"""
+    for k in range(3):
+        for m in range(3):
+            if faces[a, k] == faces[b, m]:
+                return False                        # neighbours: touching, not crossing
+    # signed distances of each triangle's corners from the other's plane; a
+    # triangle wholly on one side of the other's plane cannot cut it (most pairs)
+    da, db = np.empty(3), np.empty(3)
+    for k in range(3):
+        db[k] = _plane(tri[b, k], tri[a, 0], normals[a])
+        da[k] = _plane(tri[a, k], tri[b, 0], normals[b])
+    if not (_straddles(da, tol) and _straddles(db, tol)):
+        return False
+    return (_edges_pierce(tri[b], db, tri[a], normals[a], tol)
+            or _edges_pierce(tri[a], da, tri[b], normals[b], tol))
+
+
+@_jit
+def _plane(point, origin, normal):
+    return ((point[0] - origin[0]) * normal[0] + (point[1] - origin[1]) * normal[1]
+            + (point[2] - origin[2]) * normal[2])
+
+
+@_jit
+def _straddles(d, tol):
+    """The three signed distances ``d`` are not all on one side (beyond ``tol``)."""
+    above = d[0] > tol and d[1] > tol and d[2] > tol
+    below = d[0] < -tol and d[1] < -tol and d[2] < -tol
+    return not (above or below)
+
+
+@_jit
+def _edges_pierce(edges_of, d, target, normal, tol):
+    """Does an edge of triangle ``edges_of`` (3, 3) cross the interior of ``target``?
+
+    ``d``: (3,) signed distances of ``edges_of``'s corners from the plane of
+    ``target``; ``normal``: its unit normal. The crossing point must lie inside
+    the target, beyond ``tol`` from each of its sides.
+    """
+    point = np.empty(3)
+    for e in range(3):
+        ds, de = d[e], d[(e + 1) % 3]
+        if not ((ds > tol and de < -tol) or (ds < -tol and de > tol)):
+            continue
+        t = ds / (ds - de)
+        for c in range(3):
+            point[c] = edges_of[e, c] + t * (edges_of[(e + 1) % 3, c] - edges_of[e, c])
+        inside = True
+        for s in range(3):
+            u, v = target[s], target[(s + 1) % 3]
+            sx, sy, sz = v[0] - u[0], v[1] - u[1], v[2] - u[2]
+            px, py, pz = point[0] - u[0], point[1] - u[1], point[2] - u[2]
+            inward = ((sy * pz - sz * py) * normal[0] + (sz * px - sx * pz) * normal[1]
+                      + (sx * py - sy * px) * normal[2])
+            if not inward > tol * np.sqrt(sx * sx + sy * sy + sz * sz):
+                inside = False
+                break
+        if inside:
+            return True
+    return False
+
+
+@_jit
+def _morton(lo, hi):
+    """Z-order curve key of each box's centre (21 bits per axis over the centres' bounds)."""
+    n = len(lo)
+    centre = (lo + hi) / 2
+    low = np.empty(3)
+    span = np.empty(3)
+    for axis in range(3):
+        low[axis] = centre[:, axis].min() if n else 0.0
+        span[axis] = centre[:, axis].max() - low[axis] if n else 0.0
+        if not span[axis] > 0:
+            span[axis] = 1.0
+    key = np.zeros(n, np.uint64)
+    for i in range(n):
+        k = np.uint64(0)
+        for axis in range(3):
+            cell = np.uint64((centre[i, axis] - low[axis]) / span[axis] * (2**21 - 1))
+            for bit in range(21):
+                k |= ((cell >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
+        key[i] = k
     return key
