@@ -63,3 +63,14 @@ class FclLoop:
             if fcl.collide(a, b, self.request, fcl.CollisionResult()):
                 return True
         return False
+
+
+def kdtree_baseline(tree, a, b, points, radius, k=8):
+    """The glue of issue 11: nearest segments by midpoint, projected, no exactness check."""
+    _, units = tree.query(points, k=k)
+    axis = b[units] - a[units]
+    rel = points[:, None] - a[units]
+    t = np.clip(np.einsum("mki,mki->mk", rel, axis) / np.einsum("mki,mki->mk", axis, axis),
+                0.0, 1.0)
+    d = np.linalg.norm(rel - t[..., None] * axis, axis=2)
+    return d.min(axis=1) - radius

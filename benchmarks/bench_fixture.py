@@ -25,20 +25,9 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from _common import interleaved
+from _common import interleaved, kdtree_baseline
 from cadpipe import Path, Pipe
 from cadpipe.collision.fixture import leaves, locate
-
-
-def kdtree_baseline(tree, a, b, points, radius, k=8):
-    """The glue of issue 11: nearest segments by midpoint, projected, no exactness check."""
-    _, units = tree.query(points, k=k)
-    axis = b[units] - a[units]
-    rel = points[:, None] - a[units]
-    t = np.clip(np.einsum("mki,mki->mk", rel, axis) / np.einsum("mki,mki->mk", axis, axis),
-                0.0, 1.0)
-    d = np.linalg.norm(rel - t[..., None] * axis, axis=2)
-    return d.min(axis=1) - radius
 
 
 def brute_force(centres, points, radius):

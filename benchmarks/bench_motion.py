@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / "examples"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 import plan_panda  # noqa: E402
-from _common import FclLoop, interleaved  # noqa: E402
+from _common import FclLoop, interleaved, kdtree_baseline  # noqa: E402
 
 from cadpipe import Path, Pipe  # noqa: E402
 from cadpipe.collision import Robot  # noqa: E402
@@ -187,17 +187,6 @@ def part_planning(robot, world, loop, plans):
               f"median {np.median([x[0] for x in r]):6.2f} s  "
               f"validity calls {np.median([x[1] for x in r]):7.0f}  "
               f"colliding between states {sum(x[3] for x in solved)}/{len(solved)}")
-
-
-def kdtree_baseline(tree, a, b, points, radius, k=8):
-    """The glue of issue 11: nearest segments by midpoint, projected, no exactness check."""
-    _, units = tree.query(points, k=k)
-    axis = b[units] - a[units]
-    rel = points[:, None] - a[units]
-    t = np.clip(np.einsum("mki,mki->mk", rel, axis) / np.einsum("mki,mki->mk", axis, axis),
-                0.0, 1.0)
-    d = np.linalg.norm(rel - t[..., None] * axis, axis=2)
-    return d.min(axis=1) - radius
 
 
 def part_fixture(repeat):

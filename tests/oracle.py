@@ -4,7 +4,8 @@
 rtree over the faces' boxes, then every edge of one triangle against the interior
 of the other, vectorized over the candidate pairs); :func:`solid_problems` adds
 manifold3d's status, trimesh's watertightness and round trips through STL and 3MF
-written by trimesh. Faces that share a vertex are neighbours in a valid mesh and
+written by trimesh (welded at float32 as the files store it, then ``cadpipe check``'s
+report). Faces that share a vertex are neighbours in a valid mesh and
 are not tested; touching within 1e-9 of the mesh size is not counted (coplanar
 contact is a matter of rounding, not a wrong result).
 """
@@ -14,6 +15,9 @@ import io
 import manifold3d
 import numpy as np
 import trimesh
+
+from cadpipe import Mesh
+from cadpipe.solids.validity import check_mesh
 
 
 def _pierces(p, q, tri, tol):
@@ -92,10 +96,13 @@ def solid_problems(mesh, round_trip=True):
         problems.append("trimesh: not a watertight, consistently wound, positive solid")
     if round_trip:
         for kind in ("stl", "3mf"):
-            data = tm.export(file_type=kind)
-            back = trimesh.load(io.BytesIO(data), file_type=kind, force="mesh")
-            if not (back.is_watertight and back.is_winding_consistent and back.volume > 0
-                    and len(back.faces) == len(f)):
-                problems.append(f"{kind} round trip: {len(back.faces)} faces of {len(f)}, "
+            back = trimesh.load(io.BytesIO(tm.export(file_type=kind)), file_type=kind,
+                                force="mesh", process=False)
+            back.merge_vertices(digits_vertex=None)     # float32 coordinates, welded exactly
+            report = check_mesh(Mesh(back.vertices, back.faces))
+            if not (report["valid"] and back.is_watertight and back.is_winding_consistent
+                    and back.volume > 0 and len(back.faces) == len(f)):
+                problems.append(f"{kind} round trip: {report['problems']}, "
+                                f"{len(back.faces)} faces of {len(f)}, "
                                 f"watertight {back.is_watertight}")
     return problems

@@ -1,13 +1,13 @@
 """Spliced chains are checked piece against piece (issue 10): pipes that overlap or
 cross, and pipes that meet at a corner, give one valid solid, never crossing faces.
-Every result goes through the independent checks of :mod:`chain_solid`."""
+Every result goes through the independent checks of :mod:`oracle`."""
 
 import numpy as np
 import pytest
 
 import cadpipe
 from cadpipe import HollowChain, HollowPipe, InputError, Junction, Pipe, splice
-from chain_solid import solid_problems
+from oracle import solid_problems
 
 
 def line(a, b, radius=1.0, sides=8, **kw):

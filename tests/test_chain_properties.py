@@ -1,7 +1,7 @@
 """Property tests of spliced chains (issue 10): chains of 2-5 pipes along random paths,
 of different sides and variable radius, touching at corners, overlapping, crossing
 each other, open or closed, through lcm and merge transitions, hollow or not. Every
-result must pass :func:`chain_solid.solid_problems` (the triangle oracle, manifold3d,
+result must pass :func:`oracle.solid_problems` (the triangle oracle, manifold3d,
 trimesh, STL and 3MF round trips); invalid arguments must raise cadpipe errors naming
 their key."""
 
@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import CadpipeError, GeometryError, HollowChain, HollowPipe, Junction, Pipe, splice
-from chain_solid import solid_problems
+from oracle import solid_problems
 
 #: share of valid chains that must build (the rest: a pipe that cuts itself)
 MIN_BUILD_RATE = 0.9
