@@ -18,7 +18,7 @@ demo: $(STAMP)
 
 # ruff's rule set is in pyproject.toml; slow cases run too, spread over the cores
 test: $(STAMP) chromium consumers
-	$(VENV)/bin/ruff check cadpipe
+	$(VENV)/bin/ruff check cadpipe tests benchmarks examples
 	$(PY) -m pytest -n auto
 
 bench: $(STAMP)

@@ -185,7 +185,8 @@ def test_check_options_first_hit_and_only_come_from_the_spec(tmp_path):
     text = ('[robot]\nurdf = "panda/panda.urdf"\njoints = {panda_joint4 = -1.5}\n'
             '[check]\nfirst_hit = true\nonly = "panda"\n'
             '[[parts]]\nname = "a"\nkind = "box"\nsize = 0.1\ntransform = {translate = [2, 2, 2]}\n'
-            '[[parts]]\nname = "b"\nkind = "box"\nsize = 0.1\ntransform = {translate = [2, 2, 2.05]}\n')
+            '[[parts]]\nname = "b"\nkind = "box"\nsize = 0.1\n'
+            'transform = {translate = [2, 2, 2.05]}\n')
     spec = read(write_cell(tmp_path, text))
     assert spec.cell.check == {"stop_after_self": False, "certify": False, "first_hit": True,
                                "only": "panda"}

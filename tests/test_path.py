@@ -94,7 +94,7 @@ def test_fillet_too_large_for_segment_is_an_error():
 
 def test_fold_back_is_an_error():
     with pytest.raises(cadpipe.GeometryError, match="folds back"):
-        Path([[0, 0, 0], [1, 0, 0], [0, 0, 0.0]]).tangents
+        _ = Path([[0, 0, 0], [1, 0, 0], [0, 0, 0.0]]).tangents
 
 
 def test_fillet_and_trimmed_return_paths_like_resample():
