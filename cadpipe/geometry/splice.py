@@ -477,7 +477,9 @@ def _crossing_pieces(pieces, closed):
     lo = np.minimum.reduceat(np.minimum(a, b), first, axis=0) - pad[:, None]
     hi = np.maximum.reduceat(np.maximum(a, b), first, axis=0) + pad[:, None]
     found = set()
-    for pairs in box_pairs(lo, hi):
+    overlapping = box_pairs(lo, hi)
+    for start in range(0, len(overlapping), 1 << 16):      # bounded memory per chunk
+        pairs = overlapping[start:start + (1 << 16)]
         pairs = pairs[part[first[pairs[:, 0]]] != part[first[pairs[:, 1]]]]
         # runs whose farthest segments lie nearer along the chain than the least
         # distance that counts hold no pair that counts

@@ -87,22 +87,40 @@ def _pipe_tables(ctx, tables, shared):
                      f"pipes[{i}]") for i, entry in enumerate(tables)]
 
 
-def junction(ctx, *, pipes: list, wall: Number, ends: str | list = "open",
-             sides: int | None = None, caps: str = "flat"):
-    """Hollow pipes joined into one part; each entry of ``pipes`` is a ``pipe`` table
-    whose ``wall``, ``ends``, ``sides`` and ``caps`` default to the junction's."""
+def _group(api, build):
+    """A part kind of several pipes: ``pipes`` (a list of ``pipe`` tables), ``api``'s own
+    keyword arguments, and every other ``pipe`` key as a default for the tables (a table
+    may override it), so a new option of the API is a key here too. ``build(ctx, tubes,
+    **own)`` gets the tables and the defaults they take."""
+    own = [p for p in _keys(api) if p.name not in ("pipes", "pipe")]
+    names = {p.name for p in own}
+    shared = [p.replace(default=None) for p in pipe.__signature__.parameters.values()
+              if p.kind is p.KEYWORD_ONLY and p.name not in names | {"path"}]
+
+    def kind(ctx, *, pipes, **keys):
+        return build(ctx, pipes, {k: v for k, v in keys.items() if k not in names},
+                     **{k: v for k, v in keys.items() if k in names})
+
+    context = inspect.Parameter("ctx", inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    tables = inspect.Parameter("pipes", inspect.Parameter.KEYWORD_ONLY, annotation=list)
+    kind.__signature__ = inspect.Signature([context, tables, *own, *shared])
+    kind.__name__ = kind.__qualname__ = build.__name__.strip("_")
+    kind.__doc__ = build.__doc__
+    return kind
+
+
+def _junction(ctx, pipes, defaults, *, wall, ends="open"):
+    """Hollow pipes joined into one part (:class:`~cadpipe.Junction`); each entry of
+    ``pipes`` is a ``pipe`` table whose keys default to the junction's."""
     as_positive(wall, "wall")
-    return Junction(*_pipe_tables(ctx, pipes, {"wall": wall, "ends": ends, "sides": sides,
-                                               "caps": caps}))
+    return Junction(*_pipe_tables(ctx, pipes, {**defaults, "wall": wall, "ends": ends}))
 
 
-def chain(ctx, *, pipes: list, transition: str = "lcm", closed: bool = False,
-          wall: Number | None = None, ends: str | list = "open", sides: int | None = None,
-          caps: str = "flat"):
+def _chain(ctx, pipes, defaults, *, wall=None, ends="open", transition="lcm", closed=False):
     """Pipes spliced end to start into one solid (:func:`cadpipe.splice`); hollow with
-    walls ``wall`` thick when given. Entries of ``pipes`` are ``pipe`` tables without
-    ``wall`` whose ``sides`` and ``caps`` default to the chain's."""
-    tubes = _pipe_tables(ctx, pipes, {"sides": sides, "caps": caps})
+    walls ``wall`` thick when given (:class:`~cadpipe.HollowChain`). Entries of
+    ``pipes`` are ``pipe`` tables without ``wall`` whose keys default to the chain's."""
+    tubes = _pipe_tables(ctx, pipes, defaults)
     for i, tube in enumerate(tubes):
         if not isinstance(tube, Pipe):
             raise InputError("give the wall on the chain, not on its pipes",
@@ -113,6 +131,10 @@ def chain(ctx, *, pipes: list, transition: str = "lcm", closed: bool = False,
                              key="ends")
         return splice(*tubes, transition=transition, closed=closed)
     return HollowChain(*tubes, wall=wall, ends=ends, transition=transition, closed=closed)
+
+
+junction = _group(HollowPipe, _junction)
+chain = _group(HollowChain, _chain)
 
 
 def _mesh(ctx, *, file, **options):
