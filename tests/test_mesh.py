@@ -114,3 +114,20 @@ def test_renamed_names_still_work_with_a_warning(tube):
     with pytest.warns(DeprecationWarning, match="self_intersection_findings"):
         assert pipe.self_intersections() == pipe.self_intersection_findings() == []
     assert isinstance(solid, manifold3d.Manifold)
+
+
+@pytest.mark.parametrize("corner", ["{v}/{t}/{n}", "{v}//{n}", "{v}/{t}", "{v}"])
+def test_obj_faces_with_texture_and_normal_indices_load_as_written(tmp_path, corner):
+    """``f 12/7/3 ...`` lines (as CAD exporters and robot packages write them): only the
+    vertex index counts, however many digits the others have on each line."""
+    import trimesh
+
+    box = trimesh.creation.box((1, 2, 3))
+    lines = [f"v {x} {y} {z}" for x, y, z in box.vertices] + ["vt 0 0", "vn 0 0 1"]
+    lines += ["f " + " ".join(corner.format(v=i + 1, t=1 + 10 ** (k % 5), n=1) for i in face)
+              for k, face in enumerate(box.faces)]
+    path = tmp_path / "box.obj"
+    path.write_text("\n".join(lines) + "\n")
+    mesh = Mesh.load(path)
+    assert np.array_equal(mesh.faces, box.faces)
+    assert np.isclose(mesh.volume, 6.0)

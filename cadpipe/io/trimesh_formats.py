@@ -266,20 +266,21 @@ def _runs(data):
         text = np.frombuffer(writable, np.uint8)
         text[starts[a:b]] = 32                     # blank the keyword of every line
         chunk = bytes(writable[starts[a]:ends[b - 1]])
-        lines = starts[a:b] - starts[a], ends[b - 1] - starts[a]
         if k == 1:
-            yield b"v", _numbers(chunk, lines, np.float64)
-        else:
-            yield b"f", _numbers(re.sub(rb"/\S*", b"", chunk), lines, np.int64)
+            yield b"v", _numbers(chunk, np.float64)
+        else:                                     # "f 1/2/3 ...": the vertex index only
+            yield b"f", _numbers(re.sub(rb"/\S*", b"", chunk), np.int64)
 
 
-def _numbers(text, lines, dtype):
-    """All numbers of ``text`` (one ``np.fromstring``) and how many each line holds."""
-    line_starts, length = lines
+def _numbers(text, dtype):
+    """All numbers of ``text`` (whole lines; one ``np.fromstring``) and how many each
+    line holds."""
+    buf = np.frombuffer(text, np.uint8)
+    line_starts = np.concatenate([[0], np.flatnonzero(buf[:-1] == 10) + 1])
     with warnings.catch_warnings():       # a stray word ends the parse early: caught below
         warnings.simplefilter("ignore", DeprecationWarning)
         values = np.fromstring(text, dtype=dtype, sep=" ")
-    per_line = _words_per_line(np.frombuffer(text, np.uint8), line_starts, _SPACE)
+    per_line = _words_per_line(buf, line_starts, _SPACE)
     if len(values) != per_line.sum():
         raise ValueError("not numbers")
     return values, per_line
