@@ -322,8 +322,10 @@ def _transition_tubes(tubes, before, after, transition, outer=None, check=False)
     is_segment[curves.last] = False
     short = np.logical_or.reduceat(is_segment & (bridges.segment_lengths <= spread(tolerance)),
                                    curves.first)
-    if short.any():
-        return None, short
+    # a transition that reverses has no tangent to carry rings at the reversal
+    reverses = np.logical_or.reduceat(bridges.turning_angles > np.pi - 1e-9, curves.first)
+    if short.any() or reverses.any():
+        return None, short | reverses
     bridges = Tubes(bridges, radii, sides, tubes.miter_limit[before],
                     normals=tubes.normals[:, end].T, end_normals=tubes.normals[:, start].T)
     if not check:
