@@ -8,9 +8,9 @@ as the error passes through (the spec loader prefixes the table's key path, the
 CLI the file) instead of parsing the message. ``str(error)`` reads
 ``file: key: message``, so the one line the CLI prints says where and what.
 
-Advice that names a setting is given as ``fix={"repair": True}``, not written into
-the message, so it reads in the caller's terms: ``pass repair=True`` from Python,
-``set parts[0].repair = true`` once the spec loader has located the error.
+Advice that names a setting is given as ``fix={"strict": False}``, not written into
+the message, so it reads in the caller's terms: ``pass strict=False`` from Python,
+``set parts[0].strict = false`` once the spec loader has located the error.
 Control characters in names and values are escaped in ``str(error)``, so an
 error is always one line; :func:`shown` keeps echoed values short.
 

@@ -65,7 +65,7 @@ def main(out=None):
         out = FilePath(out)
         out.mkdir(parents=True, exist_ok=True)
         tcp = Path.from_trajectory(robot, path, frame="panda_hand_tcp", step=0.01)
-        pipe = Pipe(tcp, radius=0.06, repair=True)
+        pipe = Pipe(tcp, radius=0.06)
         pipe.mesh().export(out / "tcp_pipe.stl")
         write_trajectory_usd(out / "panda_motion.usda", robot, path, extras={"tcp_pipe": pipe})
         print(f"wrote {out / 'tcp_pipe.stl'} and {out / 'panda_motion.usda'}")

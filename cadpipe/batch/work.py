@@ -279,7 +279,7 @@ def safety_pipe(job, posed, dense):
     if np.ptp(points, axis=0).max() <= 1e-9:
         return tool, None
     options = {k: v for k, v in job.pipe.items() if v is not None}
-    return tool, Pipe(Path(points), envelope=True, repair=True, **options)
+    return tool, Pipe(Path(points), envelope=True, **options)
 
 
 def check(job, folder):
