@@ -65,7 +65,8 @@ class Tally:
         start = time.perf_counter()
         try:
             with warnings.catch_warnings(), cadpipe.limits.using(max_triangles=BUDGET):
-                warnings.simplefilter("ignore")
+                warnings.simplefilter("ignore", DeprecationWarning)
+                warnings.simplefilter("error", RuntimeWarning)   # numpy's overflow/invalid
                 result = make()
         except CadpipeError:
             self.refused += 1
