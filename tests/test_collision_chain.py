@@ -24,7 +24,7 @@ def pipes():
             Pipe(np.c_[np.cos(np.arange(7) * 2 * np.pi / 7), np.sin(np.arange(7) * 2 * np.pi / 7),
                        np.zeros(7)], 0.08, 5, caps="round"),
             Pipe(cadpipe_loop(), 0.1, 6),
-            Pipe(L_BEND, 0.05, 6, repair=True, caps="round")]
+            Pipe(L_BEND, 0.05, 6, caps="round")]
 
 
 def cadpipe_loop():

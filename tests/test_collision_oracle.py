@@ -158,7 +158,7 @@ def pipe_pair():
     arc = Path.spline([[-1.0, -0.6, 0.0], [0.0, 0.4, 0.1], [1.0, -0.5, 0.0]], step=0.08)
     zig = Path([[-0.8, 0.0, -0.3], [-0.2, 0.3, 0.0], [0.4, -0.2, 0.2], [0.9, 0.1, 0.0]])
     return (Pipe(arc, 0.15, sides=24, caps="round"),
-            Pipe(zig, 0.12, sides=24, caps="round", corners="round", bend_radius=0.2))
+            Pipe(zig.filleted(0.2), 0.12, sides=24, caps="round", corners="round"))
 
 
 def test_pipes_agree_with_manifold_on_their_meshes_and_with_fcl_capsules():

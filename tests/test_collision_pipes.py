@@ -18,7 +18,7 @@ BAND = 0.01 * RADIUS
 
 def smooth_pipe():
     path = Path([[0, 0, 0], [1.5, 0, 0], [1.5, 1.5, 0.5], [0, 1.5, 1.0]])
-    return Pipe(path, RADIUS, sides=SIDES, caps="round", corners="round", bend_radius=0.5)
+    return Pipe(path.filleted(0.5), RADIUS, sides=SIDES, caps="round", corners="round")
 
 
 def test_point_queries_agree_with_the_mesh():

@@ -156,7 +156,7 @@ def test_trajectory_path_follows_the_motion_within_half_a_step(panda):
     ends = panda.frame_poses(WAYPOINTS[[0, -1]], "panda_hand_tcp")[:, :3, 3]
     np.testing.assert_allclose(samples[[0, -1]], ends, atol=1e-12)
     # a safety pipe around it is one valid solid however the hand turned
-    mesh = Pipe(path, radius=0.05, repair=True).mesh()
+    mesh = Pipe(path, radius=0.05).mesh()
     assert mesh.is_watertight and mesh.volume > 0
     with pytest.raises(InputError, match="step"):
         Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=0)
