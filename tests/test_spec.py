@@ -197,6 +197,39 @@ def test_chain_kind_splices_its_pipes(tmp_path):
     assert isinstance(read(hollow).assembly.parts[0].obj, HollowChain)
 
 
+def test_group_kinds_take_every_pipe_key_as_a_default(tmp_path):
+    """junction and chain derive their keys: any Pipe option at the group level is a
+    default for its pipes (a table overrides it), and an unknown one is refused."""
+    import inspect
+
+    from cadpipe.io import parts
+
+    pipe_keys = set(inspect.signature(Pipe).parameters) - {"path"}
+    for kind in (parts.junction, parts.chain):
+        assert pipe_keys <= set(inspect.signature(kind).parameters)
+    assert {"transition", "closed", "wall", "ends"} <= set(inspect.signature(parts.chain)
+                                                          .parameters)
+    spec = write(tmp_path, """
+        [[parts]]
+        kind = "chain"
+        radius = 0.1
+        envelope = true
+        caps = "round"
+        [[parts.pipes]]
+        path = [[0, 0, 0], [1, 0, 0]]
+        [[parts.pipes]]
+        path = [[1.3, 0, 0], [2, 0, 0]]
+        radius = 0.06
+        """)
+    spliced = read(spec).assembly.parts[0].obj
+    direct = cadpipe.splice(Pipe([[0, 0, 0], [1, 0, 0]], 0.1, envelope=True, caps="round"),
+                            Pipe([[1.3, 0, 0], [2, 0, 0]], 0.06, envelope=True, caps="round"))
+    np.testing.assert_array_equal(spliced.vertices, direct.vertices)
+    bad = write(tmp_path, spec.read_text().replace("envelope = true", "envelop = true"))
+    with pytest.raises(cadpipe.SpecError, match="envelop"):
+        read(bad)
+
+
 BAD_SPECS = [
     # (spec body, message fragments): each names the file, the key path and what was expected
     ("""
