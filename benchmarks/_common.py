@@ -1,4 +1,4 @@
-"""What the robot benchmarks share: interleaved timing and the python-fcl loop peer.
+"""What the benchmarks share: interleaved timing, the python-fcl loop peer, scenes.
 
 ``bench_collision.py`` (one state at a time) and ``bench_motion.py`` (motions and
 planning) time cadpipe against the same 15-line python-fcl loop of issue 11; it
@@ -9,8 +9,9 @@ import time
 
 import fcl
 import numpy as np
+import trimesh
 
-from cadpipe import Pipe
+from cadpipe import Mesh, Path, Pipe
 from cadpipe.collision.bodies import as_body
 
 
@@ -74,3 +75,14 @@ def kdtree_baseline(tree, a, b, points, radius, k=8):
                 0.0, 1.0)
     d = np.linalg.norm(rel - t[..., None] * axis, axis=2)
     return d.min(axis=1) - radius
+
+
+def pipe_scene():
+    """Two safety pipes and a torus mesh: the pipe-pose benchmarks' scene."""
+    a = Pipe(Path.spline([[-1.0, -0.6, 0.0], [0.0, 0.4, 0.1], [1.0, -0.5, 0.0]], step=0.05),
+             0.15, sides=32, caps="round")
+    b = Pipe(Path.spline([[-0.8, 0.0, -0.3], [0.0, 0.3, 0.0], [0.9, 0.1, 0.2]], step=0.05),
+             0.12, sides=32, caps="round")
+    torus = Mesh.from_trimesh(trimesh.creation.torus(0.5, 0.15, major_sections=48,
+                                                     minor_sections=16))
+    return a, b, torus

@@ -45,7 +45,7 @@ from cadpipe import CollisionWorld, Mesh, Path, Pipe
 from cadpipe.collision import Box, Joint, Robot
 from cadpipe.collision.bodies import as_body
 
-from _common import FclLoop, fcl_object, interleaved, obstacle_mesh
+from _common import FclLoop, fcl_object, interleaved, obstacle_mesh, pipe_scene
 
 
 def arm():
@@ -141,12 +141,7 @@ def pipe_pair(poses, repeat):
     """Two safety pipes, and a pipe against a mesh, at random relative poses: one pose
     at a time (``set_pose`` + ``check(first_hit=True)``, ``distance``) and batched
     (``check_many``, the chains' own batched gaps), against FCL on the meshed pipes."""
-    a = Pipe(Path.spline([[-1.0, -0.6, 0.0], [0.0, 0.4, 0.1], [1.0, -0.5, 0.0]], step=0.05),
-             0.15, sides=32, caps="round")
-    b = Pipe(Path.spline([[-0.8, 0.0, -0.3], [0.0, 0.3, 0.0], [0.9, 0.1, 0.2]], step=0.05),
-             0.12, sides=32, caps="round")
-    block = Mesh.from_trimesh(trimesh.creation.torus(0.5, 0.15, major_sections=48,
-                                                     minor_sections=16))
+    a, b, block = pipe_scene()
     chain_a, chain_b = as_body(a, "a").chain, as_body(b, "b").chain
     world = CollisionWorld()
     world.add("a", a)

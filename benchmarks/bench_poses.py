@@ -25,21 +25,10 @@ import os
 
 import fcl
 import numpy as np
-import trimesh
 from scipy.spatial.transform import Rotation
 
-from _common import fcl_object, interleaved
-from cadpipe import CollisionWorld, Mesh, Path, Pipe
-
-
-def scene():
-    a = Pipe(Path.spline([[-1.0, -0.6, 0.0], [0.0, 0.4, 0.1], [1.0, -0.5, 0.0]], step=0.05),
-             0.15, sides=32, caps="round")
-    b = Pipe(Path.spline([[-0.8, 0.0, -0.3], [0.0, 0.3, 0.0], [0.9, 0.1, 0.2]], step=0.05),
-             0.12, sides=32, caps="round")
-    torus = Mesh.from_trimesh(trimesh.creation.torus(0.5, 0.15, major_sections=48,
-                                                     minor_sections=16))
-    return a, b, torus
+from _common import fcl_object, interleaved, pipe_scene
+from cadpipe import CollisionWorld
 
 
 def main():
@@ -47,7 +36,7 @@ def main():
     parser.add_argument("--poses", type=int, default=10_000)
     parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
-    a, b, torus = scene()
+    a, b, torus = pipe_scene()
     worlds = {"pipe-pipe": CollisionWorld().add("a", a).add("b", b),
               "pipe-mesh": CollisionWorld().add("a", torus).add("b", b)}
     fixed = {"pipe-pipe": fcl_object(a.mesh()), "pipe-mesh": fcl_object(torus)}

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from cadpipe.collision.bounds import box_levels
+from cadpipe.collision.hierarchy import move_points
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -201,10 +202,7 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
     on_axis, on_triangle = np.empty(3), np.empty(3)
     for p in range(len(poses)):
         m = poses[p]
-        for k in range(len(points)):
-            for r in range(3):
-                moved[k, r] = m[r, 0] * points[k, 0] + m[r, 1] * points[k, 1] \
-                    + m[r, 2] * points[k, 2] + m[r, 3]
+        move_points(m, points, moved)
         for c in range(nodes_c):                 # each chain node's box, moved
             outer = table[c, 9]
             for r in range(3):

@@ -187,6 +187,15 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
 
 
 @numba.njit(cache=True, nogil=True)
+def move_points(m, points, out):
+    """``out`` (K, 3) = ``points`` (K, 3) moved by the rigid 4x4 ``m``, in place."""
+    for k in range(len(points)):
+        for r in range(3):
+            out[k, r] = m[r, 0] * points[k, 0] + m[r, 1] * points[k, 1] \
+                + m[r, 2] * points[k, 2] + m[r, 3]
+
+
+@numba.njit(cache=True, nogil=True)
 def _walk_kernel(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b, poses, cap,
                  yes_no, gap, units, params, left):
     """Walk both trees in lockstep for each pose, depth first (``table``, ``index``:
@@ -208,10 +217,7 @@ def _walk_kernel(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b,
     count = 0
     for p in range(len(poses)):
         m = poses[p]
-        for k in range(len(points_b)):
-            for r in range(3):
-                moved[k, r] = m[r, 0] * points_b[k, 0] + m[r, 1] * points_b[k, 1] \
-                    + m[r, 2] * points_b[k, 2] + m[r, 3]
+        move_points(m, points_b, moved)
         bound, best = np.inf, np.inf
         units[p, 0], units[p, 1], params[p, 0], params[p, 1] = -1, -1, np.nan, np.nan
         stack_a[0], stack_b[0] = 0, 0
