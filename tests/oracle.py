@@ -12,6 +12,7 @@ contact is a matter of rounding, not a wrong result).
 
 import io
 
+import fcl
 import manifold3d
 import numpy as np
 import trimesh
@@ -106,3 +107,12 @@ def solid_problems(mesh, round_trip=True):
                                 f"{len(back.faces)} faces of {len(f)}, "
                                 f"watertight {back.is_watertight}")
     return problems
+
+
+def fcl_bvh(mesh):
+    """The mesh as python-fcl's BVH model: FCL as the reference for collision answers."""
+    bvh = fcl.BVHModel()
+    bvh.beginModel(len(mesh.vertices), len(mesh.faces))
+    bvh.addSubModel(np.array(mesh.vertices), np.array(mesh.faces))
+    bvh.endModel()
+    return bvh

@@ -5,7 +5,6 @@ result must pass :func:`oracle.solid_problems` (the triangle oracle, manifold3d,
 trimesh, STL and 3MF round trips); invalid arguments must raise cadpipe errors naming
 their key."""
 
-from collections import Counter
 
 import numpy as np
 import pytest
@@ -15,9 +14,9 @@ from hypothesis import strategies as st
 import cadpipe
 from cadpipe import CadpipeError, GeometryError, HollowChain, HollowPipe, Junction, Pipe, splice
 from oracle import solid_problems
+from rates import assert_builds_mostly
 
 #: share of valid chains that must build (the rest: a pipe that cuts itself)
-MIN_BUILD_RATE = 0.9
 SETTINGS = settings(deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
 
 
@@ -83,15 +82,6 @@ def chains(draw):
     return pipes, {"closed": closed, "transition": transition}
 
 
-def build_rate(run, examples):
-    outcomes = Counter()
-    settings(SETTINGS, max_examples=examples)(run)(outcomes)
-    total = sum(outcomes.values())
-    print(f"chains: {dict(outcomes)}")
-    assert total >= examples // 2, outcomes
-    assert outcomes["built"] / total >= MIN_BUILD_RATE, outcomes
-
-
 def attempt(outcomes, make):
     try:
         mesh = make()
@@ -118,7 +108,7 @@ def check_random_chains(examples, round_trip):
                                    for p in pipes])
             assert mesh.to_trimesh().contains(axes).all()
 
-    build_rate(run, examples)
+    assert_builds_mostly(run, examples, "chains", SETTINGS)
 
 
 @pytest.mark.slow
@@ -141,7 +131,7 @@ def test_random_hollow_chains_are_valid_shells():
         if mesh is not None:
             assert solid_problems(mesh) == []
 
-    build_rate(run, 25)
+    assert_builds_mostly(run, 25, "chains", SETTINGS)
 
 
 # -- invalid arguments ---------------------------------------------------------------

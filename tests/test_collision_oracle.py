@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from cadpipe import CollisionWorld, Mesh, Path, Pipe
 from cadpipe.collision import Box, Joint, Robot
+from oracle import fcl_bvh
 
 N_POSES = 2000
 #: a pair "collides" for the oracle when its intersection volume exceeds this
@@ -44,14 +45,6 @@ def c_shape():
     solid = manifold3d.Manifold.cube((2.0, 2.0, 1.0)) - manifold3d.Manifold.cube(
         (1.5, 1.0, 1.2)).translate((0.5, 0.5, -0.1))
     return Mesh.from_manifold(solid.translate((-1.0, -1.0, -0.5)))
-
-
-def fcl_bvh(mesh):
-    bvh = fcl.BVHModel()
-    bvh.beginModel(len(mesh.vertices), len(mesh.faces))
-    bvh.addSubModel(np.array(mesh.vertices), np.array(mesh.faces))
-    bvh.endModel()
-    return bvh
 
 
 def fcl_distance(geom_a, pose_a, geom_b, pose_b):

@@ -13,7 +13,6 @@ specific type and name the argument or spec key at fault.
 import json
 import math
 import tempfile
-from collections import Counter
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -23,11 +22,10 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import GeometryError, InputError, SpecError
+from rates import assert_builds_mostly
 
 FAST = settings(deadline=None, database=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-#: valid inputs that must build, at least (the rest refused by a self-intersection check)
-MIN_BUILD_RATE = 0.9
 
 
 def check_solid(mesh):
@@ -36,16 +34,6 @@ def check_solid(mesh):
     reference = mesh.to_trimesh()
     assert reference.is_watertight and reference.is_winding_consistent and reference.is_volume
     assert mesh.volume == pytest.approx(reference.volume, rel=1e-9)
-
-
-def assert_builds_mostly(run, examples, label):
-    """Run the hypothesis test ``run(outcomes)`` and assert its build rate."""
-    outcomes = Counter()
-    settings(FAST, max_examples=examples)(run)(outcomes)
-    total = sum(outcomes.values())
-    print(f"{label}: {dict(outcomes)}")                # the rate, shown with pytest -s
-    assert total >= examples // 2, outcomes
-    assert outcomes["built"] / total >= MIN_BUILD_RATE, outcomes
 
 
 def record(outcomes, build):
@@ -120,7 +108,7 @@ def test_valid_pipes_build():
     def run(outcomes, args):
         record(outcomes, lambda: build_pipe(**args))
 
-    assert_builds_mostly(run, 400, "valid pipes")
+    assert_builds_mostly(run, 400, "valid pipes", FAST)
 
 
 #: one fault each: (argument, bad value or function of the valid points, error, named)
@@ -211,7 +199,7 @@ def test_valid_specs_build():
     def run(outcomes, spec):
         record(outcomes, lambda: load(spec))
 
-    assert_builds_mostly(run, 250, "valid specs")
+    assert_builds_mostly(run, 250, "valid specs", FAST)
 
 
 #: per part kind, keys and values the spec reference rejects
@@ -263,7 +251,7 @@ def test_valid_chains_splice():
         record(outcomes, lambda: cadpipe.splice(
             *(cadpipe.Pipe(p, r, sides=n) for p, r, n in pipes), transition=transition))
 
-    assert_builds_mostly(run, 200, "valid chains")
+    assert_builds_mostly(run, 200, "valid chains", FAST)
 
 
 @settings(FAST, max_examples=100)

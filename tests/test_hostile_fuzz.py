@@ -31,7 +31,7 @@ from scipy.spatial.transform import Rotation
 
 import cadpipe
 from cadpipe import CadpipeError
-from oracle import self_intersections
+from oracle import fcl_bvh, self_intersections
 
 SEED = 20261201
 HANG_S = 20.0
@@ -272,14 +272,6 @@ def test_mutated_specs(scale, tmp_path):
     tally.check(min_rate=0.95)
 
 
-def _bvh(mesh):
-    model = fcl.BVHModel()
-    model.beginModel(len(mesh.vertices), len(mesh.faces))
-    model.addSubModel(np.asarray(mesh.vertices), np.asarray(mesh.faces))
-    model.endModel()
-    return model
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("size, offset", [(1e-6, 1.0), (1.0, 0.0), (1e-3, 1e3)])
 def test_collision_poses(scale, size, offset):
@@ -307,7 +299,7 @@ def test_collision_poses(scale, size, offset):
         vert_properties=(block.vertices / size).astype(np.float32),
         tri_verts=block.faces.astype(np.uint32)))
     smaller = min(solid_a.volume(), solid_b.volume())
-    geom_a, geom_b = _bvh(ball), _bvh(block)
+    geom_a, geom_b = fcl_bvh(ball), fcl_bvh(block)
     wrong = []
     for c in range(count):
         hit = bool(reports[c].collisions)
