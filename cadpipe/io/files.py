@@ -129,8 +129,10 @@ _RUN_STARTED = time.time()
 
 
 def _temp_pattern(path):
-    """The names :func:`atomic_path` gives its temporary files for ``path``: a glob."""
-    return str(path.parent / f".{glob.escape(path.name)}.*.tmp{glob.escape(path.suffix)}")
+    """The names of :func:`atomic_path`'s temporary files for ``path`` (``.NAME.*.tmp.SUFFIX``)
+    and of the writer's own temporaries beside them (usd-core saves ``.NAME.*.tmp`` through
+    ``.NAME.*.tmp.XXXXXX``): a glob."""
+    return str(path.parent / f".{glob.escape(path.name)}.*.tmp*")
 
 
 def _remove_stale(path):
