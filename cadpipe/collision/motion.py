@@ -86,7 +86,9 @@ class MotionCheck:
     ``pair`` comes within ``clearance < tolerance`` of contact, at joint values
     ``configuration``; with ``margin > 0``, where the pair's clearance bound
     ``clearance`` fell below ``2 margin`` (not a proven contact: the motion is
-    refused). ``distance_calls`` counts the exact clearance queries.
+    refused). ``distance_calls`` counts the exact clearance queries and
+    ``states`` the configurations the proof posed the robot at (see
+    :func:`proof_states`).
     """
 
     free: bool
@@ -98,6 +100,7 @@ class MotionCheck:
     tolerance: float
     distance_calls: int
     margin: float = 0.0
+    states: int = 0
 
     def __bool__(self):
         """True when the motion collides (as a :class:`CollisionReport` is)."""
@@ -113,6 +116,24 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE, margin=0.0):
     ``margin > 0`` asks for that clearance all along instead of a contact time
     (see the module docstring).
     """
+    return _certify(world, group, configurations, tolerance, margin, np.empty(0))[0]
+
+
+def proof_states(world, group, configurations, tolerance=TOLERANCE, margin=0.0,
+                 most=100_000):
+    """``(V, A)`` the configurations at which :func:`check_motion` posed the robot
+    (forward kinematics, then the clearance bounds of the pairs due there), in
+    the order it did, at most ``most``: the work behind one certificate, for
+    comparing it with a sampling validator's states."""
+    times = np.empty(most)
+    _, segments = _certify(world, group, configurations, tolerance, margin, times)
+    q = np.asarray(configurations, np.float64)
+    return np.concatenate([q[k] + t[:, None] * (q[k + 1] - q[k]) for k, t in segments])
+
+
+def _certify(world, group, configurations, tolerance, margin, times):
+    """:func:`check_motion`, and per segment checked ``(index, times posed)``, up to
+    ``len(times)`` of them."""
     if not tolerance > 0:
         raise InputError(f"tolerance must be > 0, got {tolerance!r}", key="tolerance")
     if not margin >= 0 or not np.isfinite(margin):
@@ -125,23 +146,26 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE, margin=0.0):
     setup = _setup(world, group, robot)
     kinematics = (*setup.kinematics, base)
     count = len(setup.pairs[0])
-    calls = 0
+    calls, posed, segments = 0, np.zeros(1, np.int64), []
     for segment in range(len(values) - 1):
         t, given, steps = np.zeros(count), np.full(count, np.nan), np.zeros(count, np.int64)
+        before = posed[0]
         while True:
             code, k, bound = _advance(kinematics, setup.chain, setup.pairs, setup.pieces,
                                       values[segment], values[segment + 1], tolerance,
-                                      margin, t, given, steps)
+                                      margin, t, given, steps, posed, times)
             if code != _ASK:
                 break
             given[k] = _clearance(world, setup, robot, base, q[segment], q[segment + 1], t[k], k)
             calls += 1
+        segments.append((segment, times[min(before, len(times)):min(posed[0], len(times))]))
         if code != _FREE:
             at = q[segment] + t[k] * (q[segment + 1] - q[segment])
             clearance = float("nan") if code == _GRAZING else float(bound)
             return MotionCheck(False, segment, float(t[k]), setup.names[k], at, clearance,
-                               tolerance, calls, margin)
-    return MotionCheck(True, None, None, None, None, None, tolerance, calls, margin)
+                               tolerance, calls, margin, int(posed[0])), segments
+    return MotionCheck(True, None, None, None, None, None, tolerance, calls, margin,
+                       int(posed[0])), segments
 
 
 def _clearance(world, setup, robot, base, q_a, q_b, t, k):
@@ -183,14 +207,16 @@ def start_contacts(world, group, q):
     return found
 
 
-def travel_bounds(robot, q_a, q_b, t=0.0, base=None):
-    """``(L,)`` how far any point of each link with geometry (in ``robot.link_meshes``
-    order) can move over the motion ``q_a -> q_b`` from time ``t`` to its end: the
-    speed bound ``D_L`` of the module docstring times ``1 - t``."""
+def speed_bounds(robot, q_a, q_b, t=0.0, base=None):
+    """``(L, 3)`` per link with geometry (in ``robot.link_meshes`` order), over the
+    motion ``q_a -> q_b`` from time ``t`` to its end, per unit of time: a bound
+    ``D`` of the speed of any of its points, the greatest speed ``S`` of a
+    point of its oriented box at ``t``, and a bound ``A`` of how fast any
+    point's speed can grow; a point's path from ``t`` to ``t + s`` is at most
+    ``min(D s, S s + A s^2 / 2)`` long."""
     values = robot.joint_array(np.stack([q_a, q_b]))
-    chain = _chain(robot)
     kinematics = (*_kinematics(robot), np.eye(4) if base is None else np.asarray(base, float))
-    return _travel(kinematics, chain, values[0], values[1], float(t))
+    return _motions(kinematics, _chain(robot), values[0], values[1], float(t))
 
 
 _SETUPS = weakref.WeakKeyDictionary()
@@ -340,30 +366,40 @@ def _chain_levers(chain, v_a, v_b):
 
 
 @_jit
-def _link_speed(chain, lever, relative, v_a, v_b, frames, l, other, remaining):
-    """The speed bound ``D_L`` of link ``l`` over the ``remaining`` part of the
-    segment, ``frames`` (F, 4, 4) where every frame stands now, leaving out the
-    joints above link ``other`` too (-1: none)."""
-    geometry, corners, above, turning, sliding = chain[0], chain[1], chain[3], chain[5], chain[6]
-    parent, origin, axis = chain[8], chain[9], chain[10]
-    pose = frames[geometry[l]]
-    world = np.empty((8, 3))
+def _link_motion(chain, lever, relative, v_a, v_b, frames, link, other, remaining, box, reach):
+    """``(D, S, A)`` of link ``link`` over the ``remaining`` part of the segment,
+    ``frames`` (F, 4, 4) where every frame stands now, leaving out the joints
+    above link ``other`` too (-1: none): the speed bound ``D`` (step 1 of the
+    module docstring), the greatest speed ``S`` of the link's box now, and a
+    bound ``A`` of how fast any point's speed can grow (see :func:`_closing`).
+
+    With the joints' rates ``dq_j`` (per unit of ``t``), axes ``u_j`` and
+    origins ``o_j``, a point ``p`` of the link moves at
+    ``sum_j dq_j u_j x (p - o_j)`` (turning) plus ``dq_j u_j`` (sliding): a
+    rigid velocity field, greatest at a corner of the link's box. Its rate of
+    change is at most ``sum_j |dq_j| (2 w_j R_j + sum_(k >= j) |dq_k| r_k)``,
+    ``w_j`` the rates of the turning joints above ``j`` (how fast ``u_j``
+    turns), ``R_j`` the chain bound of ``|p - o_j|`` and ``r_k`` the lever of
+    ``D`` (1 for a sliding joint). ``box`` (8, 3) and ``reach`` (J,) are scratch.
+    """
+    geometry, corners, above, below = chain[0], chain[1], chain[3], chain[4]
+    turning, sliding, parent, origin, axis = chain[5], chain[6], chain[8], chain[9], chain[10]
+    pose = frames[geometry[link]]
     for c in range(8):
         for r in range(3):
-            world[c, r] = pose[r, 0] * corners[l, c, 0] + pose[r, 1] * corners[l, c, 1] \
-                + pose[r, 2] * corners[l, c, 2] + pose[r, 3]
+            box[c, r] = pose[r, 0] * corners[link, c, 0] + pose[r, 1] * corners[link, c, 1] \
+                + pose[r, 2] * corners[link, c, 2] + pose[r, 3]
+    joints = above.shape[1]
+    # the velocity field p -> spin x p + shift; reach[j] is r_j over the rest of the segment
+    sx, sy, sz, hx, hy, hz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     speed = 0.0
-    for j in range(above.shape[1]):
-        step = abs(v_b[j] - v_a[j])
-        if not above[l, j] or step == 0.0 or (other >= 0 and above[other, j]):
-            continue
-        if sliding[j]:
-            speed += step
-            continue
-        if not turning[j]:
+    for j in range(joints):
+        rate = v_b[j] - v_a[j]
+        reach[j] = 0.0
+        if not above[link, j] or rate == 0.0 or (other >= 0 and above[other, j]):
             continue
         up, o = frames[parent[j]], origin[j]
-        # the joint's axis where it stands: a point and a unit direction
+        # the joint's axis where it stands: its origin p and unit direction d
         px = up[0, 0] * o[0, 3] + up[0, 1] * o[1, 3] + up[0, 2] * o[2, 3] + up[0, 3]
         py = up[1, 0] * o[0, 3] + up[1, 1] * o[1, 3] + up[1, 2] * o[2, 3] + up[1, 3]
         pz = up[2, 0] * o[0, 3] + up[2, 1] * o[1, 3] + up[2, 2] * o[2, 3] + up[2, 3]
@@ -373,14 +409,52 @@ def _link_speed(chain, lever, relative, v_a, v_b, frames, l, other, remaining):
             dx += up[0, m] * local
             dy += up[1, m] * local
             dz += up[2, m] * local
-        far = 0.0
-        for c in range(8):
-            ex, ey, ez = world[c, 0] - px, world[c, 1] - py, world[c, 2] - pz
-            along = ex * dx + ey * dy + ez * dz
-            far = max(far, ex * ex + ey * ey + ez * ez - along * along)
-        reach = min(lever[l, j], np.sqrt(far) + relative[l, j] * remaining)
-        speed += reach * step
-    return speed
+        if sliding[j]:
+            reach[j] = 1.0
+            hx, hy, hz = hx + rate * dx, hy + rate * dy, hz + rate * dz
+        elif turning[j]:
+            far = 0.0
+            for c in range(8):
+                ex, ey, ez = box[c, 0] - px, box[c, 1] - py, box[c, 2] - pz
+                along = ex * dx + ey * dy + ez * dz
+                far = max(far, ex * ex + ey * ey + ez * ez - along * along)
+            reach[j] = min(lever[link, j], np.sqrt(far) + relative[link, j] * remaining)
+            sx, sy, sz = sx + rate * dx, sy + rate * dy, sz + rate * dz
+            # u x (p - o) = u x p - u x o
+            hx -= rate * (dy * pz - dz * py)
+            hy -= rate * (dz * px - dx * pz)
+            hz -= rate * (dx * py - dy * px)
+        speed += reach[j] * abs(rate)
+    fastest = 0.0
+    for c in range(8):
+        x, y, z = box[c, 0], box[c, 1], box[c, 2]
+        vx = sy * z - sz * y + hx
+        vy = sz * x - sx * z + hy
+        vz = sx * y - sy * x + hz
+        fastest = max(fastest, vx * vx + vy * vy + vz * vz)
+    growth = 0.0
+    for j in range(joints):
+        if reach[j] == 0.0:
+            continue
+        turns, onward = 0.0, reach[j] * abs(v_b[j] - v_a[j])
+        for k in range(joints):
+            if reach[k] == 0.0:
+                continue
+            if below[link, k, j] and turning[k]:
+                turns += abs(v_b[k] - v_a[k])
+            elif below[link, j, k]:
+                onward += reach[k] * abs(v_b[k] - v_a[k])
+        growth += abs(v_b[j] - v_a[j]) * (2.0 * turns * lever[link, j] + onward) if turning[j] \
+            else abs(v_b[j] - v_a[j]) * turns
+    return speed, np.sqrt(fastest), growth
+
+
+@_jit
+def _closing(speed, now, growth, clearance):
+    """How far the pair can go (a fraction of the segment) before it could close
+    ``clearance``: it closes at most ``min(D s, S s + A s^2 / 2)`` over ``s``."""
+    return max(clearance / speed, 2.0 * clearance / (now + np.sqrt(now * now + 2.0 * growth
+                                                                   * clearance)))
 
 
 @_jit
@@ -395,26 +469,37 @@ def _frames_at(kinematics, v_a, v_b, t, values):
 
 
 @_jit
-def _travel(kinematics, chain, v_a, v_b, t):
-    """See :func:`travel_bounds`."""
+def _motions(kinematics, chain, v_a, v_b, t):
+    """See :func:`speed_bounds`."""
     lever, relative = _chain_levers(chain, v_a, v_b)
     frames = _frames_at(kinematics, v_a, v_b, t, np.empty((1, len(v_a))))
-    out = np.empty(len(chain[0]))
-    for l in range(len(out)):
-        out[l] = _link_speed(chain, lever, relative, v_a, v_b, frames, l, -1, 1.0 - t) \
-            * (1.0 - t)
+    out = np.empty((len(chain[0]), 3))
+    box, reach = np.empty((8, 3)), np.empty(len(v_a))
+    for link in range(len(out)):
+        out[link] = _link_motion(chain, lever, relative, v_a, v_b, frames, link, -1, 1.0 - t,
+                                 box, reach)
     return out
 
 
 @_jit
-def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, given, steps):
+def _posed(posed, times, t):
+    if posed[0] < len(times):
+        times[posed[0]] = t
+    posed[0] += 1
+
+
+@_jit
+def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, given, steps,
+             posed, times):
     """Conservative advancement of every pair over the segment between full joint
     values ``v_a`` and ``v_b``, in time order; ``(code, pair, clearance)``.
 
     ``t`` (P,) is how far each pair is proven free (1: all of it), ``given`` (P,)
     exact clearances the caller supplies for the pairs it was asked about (NaN:
     none), ``steps`` (P,) each pair's advancement steps; all three carry over
-    when the caller comes back after :data:`_ASK`. Codes: :data:`_FREE`;
+    when the caller comes back after :data:`_ASK`. ``posed[0]`` counts the
+    times forward kinematics ran; the first ``len(times)`` of them are written
+    into ``times``. Codes: :data:`_FREE`;
     :data:`_CONTACT`, :data:`_REFUSED` (``margin > 0``) or :data:`_GRAZING` for
     the pair at ``t[pair]``; :data:`_ASK`, the caller is to put the exact
     clearance of ``pair`` at ``t[pair]`` into ``given`` and call again.
@@ -425,8 +510,10 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
     geometry = chain[0]
     lever, relative = _chain_levers(chain, v_a, v_b)
     values = np.empty((1, len(v_a)))
-    frames = _frames_at(kinematics, v_a, v_b, 0.0, values)
-    frames_at = 0.0
+    frames, frames_at = _frames_at(kinematics, v_a, v_b, t.min(), values), t.min()
+    _posed(posed, times, frames_at)
+    box, reach = np.empty((8, 3)), np.empty(len(v_a))
+    alone, alone_at = np.empty((len(geometry), 3)), np.full(len(geometry), -1.0)
     while True:
         k = -1
         for p in range(len(t)):                    # the pair furthest behind
@@ -437,14 +524,25 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
         now = t[k]
         if now != frames_at:
             frames, frames_at = _frames_at(kinematics, v_a, v_b, now, values), now
+            _posed(posed, times, now)
         a, b = a_of[k], b_of[k]
         pose_a = frames[geometry[a]]
         pose_b = frames[geometry[b]] if b >= 0 else standing[k]
         remaining = 1.0 - now
-        speed = _link_speed(chain, lever, relative, v_a, v_b, frames, a, b, remaining)
         if b >= 0:
-            speed += _link_speed(chain, lever, relative, v_a, v_b, frames, b, a, remaining)
-        need = speed * remaining + margin
+            speed, fastest, growth = _link_motion(chain, lever, relative, v_a, v_b, frames, a,
+                                                  b, remaining, box, reach)
+            more = _link_motion(chain, lever, relative, v_a, v_b, frames, b, a, remaining, box,
+                                reach)
+            speed, fastest, growth = speed + more[0], fastest + more[1], growth + more[2]
+        else:                  # a link against standing objects: one motion for them all
+            if alone_at[a] != now:
+                alone[a] = _link_motion(chain, lever, relative, v_a, v_b, frames, a, -1,
+                                        remaining, box, reach)
+                alone_at[a] = now
+            speed, fastest, growth = alone[a, 0], alone[a, 1], alone[a, 2]
+        # the clearance that proves the rest of the segment (at most D times it)
+        need = min(speed * remaining, (fastest + 0.5 * growth * remaining) * remaining) + margin
         if given[k] == given[k]:
             lower = upper = given[k]
             given[k] = np.nan
@@ -466,9 +564,9 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
         if margin > 0.0:
             if lower < 2.0 * margin:
                 return _REFUSED, k, lower
-            t[k] = min(now + (lower - margin) / speed, 1.0)
+            t[k] = min(now + _closing(speed, fastest, growth, lower - margin), 1.0)
         elif lower >= tolerance or (known and upper >= tolerance and lower > 0.0):
-            t[k] = min(now + lower / speed, 1.0)
+            t[k] = min(now + _closing(speed, fastest, growth, lower), 1.0)
         elif known and upper < tolerance:
             return _CONTACT, k, upper
         else:
