@@ -171,7 +171,7 @@ def _certify(world, group, configurations, tolerance, margin, times):
 def _clearance(world, setup, robot, base, q_a, q_b, t, k):
     """The exact clearance of pair ``k`` at time ``t`` of the motion ``q_a -> q_b``;
     between solids at the segment's start, between boundaries after it."""
-    poses = robot.link_pose_array(q_a + t * (q_b - q_a), base)[0]
+    poses = robot.all_frame_poses(q_a + t * (q_b - q_a), base)[0]
     a, b = setup.pairs[0][k], setup.pairs[1][k]
     name_a, name_b = setup.names[k]
     return world.distance_at(name_a, name_b, poses[a], poses[b] if b >= 0 else
@@ -216,7 +216,8 @@ def speed_bounds(robot, q_a, q_b, t=0.0, base=None):
     ``min(D s, S s + A s^2 / 2)`` long."""
     values = robot.joint_array(np.stack([q_a, q_b]))
     kinematics = (*_kinematics(robot), np.eye(4) if base is None else np.asarray(base, float))
-    return _motions(kinematics, _chain(robot), values[0], values[1], float(t))
+    chain = _chain(robot)
+    return _motions(kinematics, chain, values[0], values[1], float(t), chain[0])
 
 
 _SETUPS = weakref.WeakKeyDictionary()
@@ -239,7 +240,7 @@ def _setup(world, group, robot):
 class _Setup:
     """What one robot's motion checks in one world take to the compiled advancement:
     the robot's kinematics and chain facts, the pairs its motion can change (not
-    allowed: link-link, ``b`` a geometry-link index, and link-object, ``b < 0`` and
+    allowed: link-link, ``a`` and ``b`` their frames, and link-object, ``b < 0`` and
     the object's standing pose) and every object's convex pieces."""
 
     def __init__(self, world, group, robot):
@@ -264,18 +265,17 @@ class _Setup:
         pieces = layout.pieces
         # each object's oriented box (8 corners in its frame): a GJK on 8 points that
         # settles most pairs before their hulls' (Panda links: 100 to 150 points)
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)],
-                         float)
-        boxes = layout.obb_centre[:, None] + np.einsum("kc,nc,nrc->nkr", signs, layout.half,
-                                                       layout.obb_axes)
-        self.pairs = (np.array(a, np.int64), np.array(b, np.int64), object_a, object_b,
-                      standing, pieces.exact[object_a] & pieces.exact[object_b],
+        boxes = box_corners(layout.obb_centre, layout.obb_axes, layout.half)
+        self.chain = _chain(robot)
+        frame = self.chain[0]
+        self.pairs = (frame[a], np.where(np.array(b, np.int64) >= 0, frame[np.maximum(b, 0)], -1)
+                      .astype(np.int64), object_a, object_b, standing,
+                      pieces.exact[object_a] & pieces.exact[object_b],
                       np.ascontiguousarray(boxes.reshape(-1, 3)))
         self.names = [(links[i], links[j] if j >= 0 else others[o])
                       for i, j, o in zip(a, b, other)]
         self.pieces = pieces.arrays()
         self.kinematics = _kinematics(robot)
-        self.chain = _chain(robot)
 
 
 def _kinematics(robot):
@@ -288,43 +288,52 @@ def _kinematics(robot):
 
 _CHAINS = weakref.WeakKeyDictionary()
 
+#: the corners of the cube [-1, 1]^3, to place an oriented box's corners
+_SIGNS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+
+
+def box_corners(centre, axes, half):
+    """``(..., 8, 3)`` corners of oriented boxes: ``centre`` (..., 3), ``axes``
+    (..., 3, 3) as columns, ``half`` (..., 3) extents."""
+    return centre[..., None, :] + np.einsum("kc,...c,...rc->...kr", _SIGNS, half, axes)
+
 
 def _chain(robot):
-    """The kinematic facts the speed bound needs, per geometry link and joint, as a
-    tuple for the compiled advancement (built once per robot: robots do not
-    change): each link's frame, its oriented box's corners (8, 3) and radius
-    about its frame; ``above`` (L, J), joint ``j`` on the path from the base to
-    link ``l``; ``below`` (L, J, J), joint ``k`` on it after ``j``; per joint its
-    kind (turning, sliding), origin offset length, parent frame, origin and axis."""
+    """The kinematic facts the speed bounds need, per frame of the URDF (in
+    ``robot.frames`` order) and per joint, as a tuple for the compiled
+    advancement (built once per robot: robots do not change): the frame index
+    of each link with geometry; per frame the corners (8, 3) of its link's
+    oriented box (the frame's origin for a frame without geometry) and the
+    link's radius about it; ``above`` (F, J), joint ``j`` on the path from the
+    base to frame ``f``; ``below`` (F, J, J), joint ``k`` on it after ``j``; per
+    joint its kind (turning, sliding), origin offset length, parent frame,
+    origin and axis."""
     if robot not in _CHAINS:
         from cadpipe.collision.bodies import as_body
 
         joints = robot.joints
         parent_joint = {j.child: k for k, j in enumerate(joints)}
-        meshes = robot.link_meshes
         n = len(joints)
-        above = np.zeros((len(meshes), n), bool)
-        below = np.zeros((len(meshes), n, n), bool)
-        for g, link in enumerate(meshes):
+        above = np.zeros((len(robot.frames), n), bool)
+        below = np.zeros((len(robot.frames), n, n), bool)
+        corners = np.zeros((len(robot.frames), 8, 3))
+        radius = np.zeros(len(robot.frames))
+        for f, link in enumerate(robot.frames):
+            if link in robot.link_meshes:
+                corners[f] = box_corners(*as_body(robot.link_shapes[link], link).obb)
+                radius[f] = np.linalg.norm(robot.link_meshes[link].vertices, axis=1).max()
             path = []
             while link in parent_joint:
                 path.append(parent_joint[link])
                 link = joints[path[-1]].parent
             path.reverse()
-            above[g, path] = True
+            above[f, path] = True
             for at, j in enumerate(path):
-                below[g, j, path[at + 1:]] = True
-        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-        corners = []
-        for name, mesh in meshes.items():
-            centre, axes, half = as_body(robot.link_shapes[name], name).obb
-            corners.append(centre + (signs * half) @ axes.T)
+                below[f, j, path[at + 1:]] = True
         frames = {name: k for k, name in enumerate(robot.frames)}
         _CHAINS[robot] = (
-            np.array([frames[name] for name in meshes], np.int64),
-            np.array(corners).reshape(-1, 8, 3),
-            np.array([np.linalg.norm(m.vertices, axis=1).max() for m in meshes.values()]),
-            above, below,
+            np.array([frames[name] for name in robot.link_meshes], np.int64), corners,
+            radius, above, below,
             np.array([j.kind in ("revolute", "continuous") for j in joints]),
             np.array([j.kind == "prismatic" for j in joints]),
             np.array([np.linalg.norm(j.origin[:3, 3]) for j in joints]),
@@ -336,40 +345,42 @@ def _chain(robot):
 
 @_jit
 def _chain_levers(chain, v_a, v_b):
-    """Per segment: ``lever`` (L, J), the chain bound of each link's distance from
-    each turning joint's axis above it (1 for a sliding joint, 0 off its path),
-    and ``relative`` (L, J), how fast the joints below ``j`` can move the link
-    relative to ``j`` (the chain bounds times the joint steps)."""
+    """Per segment: ``lever`` (F, J), the chain bound of the distance of each
+    frame's link from each turning joint's origin above it (1 for a sliding
+    joint, 0 off its path), and ``relative`` (F, J), how fast the joints below
+    ``j`` can move the link relative to ``j`` (the chain bounds times the joint
+    steps)."""
     radius, above, below, turning, sliding, offset = chain[2], chain[3], chain[4], chain[5], \
         chain[6], chain[7]
-    links, joints = above.shape
-    lever, relative = np.zeros((links, joints)), np.zeros((links, joints))
-    for l in range(links):
+    count, joints = above.shape
+    lever, relative = np.zeros((count, joints)), np.zeros((count, joints))
+    for f in range(count):
         for j in range(joints):
-            if not above[l, j]:
+            if not above[f, j]:
                 continue
             if sliding[j]:
-                lever[l, j] = 1.0
+                lever[f, j] = 1.0
             elif turning[j]:
-                reach = radius[l]
+                reach = radius[f]
                 for k in range(joints):
-                    if below[l, j, k]:
+                    if below[f, j, k]:
                         reach += offset[k]
                         if sliding[k]:
                             reach += max(abs(v_a[k]), abs(v_b[k]))
-                lever[l, j] = reach
+                lever[f, j] = reach
         for j in range(joints):
             for k in range(joints):
-                if below[l, j, k]:
-                    relative[l, j] += lever[l, k] * abs(v_b[k] - v_a[k])
+                if below[f, j, k]:
+                    relative[f, j] += lever[f, k] * abs(v_b[k] - v_a[k])
     return lever, relative
 
 
 @_jit
 def _link_motion(chain, lever, relative, v_a, v_b, frames, link, other, remaining, box, reach):
-    """``(D, S, A)`` of link ``link`` over the ``remaining`` part of the segment,
+    """``(D, S, A)`` of the link of frame ``link`` over the ``remaining`` part of the
+    segment,
     ``frames`` (F, 4, 4) where every frame stands now, leaving out the joints
-    above link ``other`` too (-1: none): the speed bound ``D`` (step 1 of the
+    above frame ``other`` too (-1: none): the speed bound ``D`` (step 1 of the
     module docstring), the greatest speed ``S`` of the link's box now, and a
     bound ``A`` of how fast any point's speed can grow (see :func:`_closing`).
 
@@ -382,9 +393,9 @@ def _link_motion(chain, lever, relative, v_a, v_b, frames, link, other, remainin
     turns), ``R_j`` the chain bound of ``|p - o_j|`` and ``r_k`` the lever of
     ``D`` (1 for a sliding joint). ``box`` (8, 3) and ``reach`` (J,) are scratch.
     """
-    geometry, corners, above, below = chain[0], chain[1], chain[3], chain[4]
+    corners, above, below = chain[1], chain[3], chain[4]
     turning, sliding, parent, origin, axis = chain[5], chain[6], chain[8], chain[9], chain[10]
-    pose = frames[geometry[link]]
+    pose = frames[link]
     for c in range(8):
         for r in range(3):
             box[c, r] = pose[r, 0] * corners[link, c, 0] + pose[r, 1] * corners[link, c, 1] \
@@ -469,16 +480,40 @@ def _frames_at(kinematics, v_a, v_b, t, values):
 
 
 @_jit
-def _motions(kinematics, chain, v_a, v_b, t):
-    """See :func:`speed_bounds`."""
+def _motions(kinematics, chain, v_a, v_b, t, chosen):
+    """``(D, S, A)`` of the frames ``chosen`` from time ``t`` of the segment from
+    ``v_a`` to ``v_b``: see :func:`speed_bounds`."""
     lever, relative = _chain_levers(chain, v_a, v_b)
     frames = _frames_at(kinematics, v_a, v_b, t, np.empty((1, len(v_a))))
-    out = np.empty((len(chain[0]), 3))
+    out = np.empty((len(chosen), 3))
     box, reach = np.empty((8, 3)), np.empty(len(v_a))
-    for link in range(len(out)):
-        out[link] = _link_motion(chain, lever, relative, v_a, v_b, frames, link, -1, 1.0 - t,
-                                 box, reach)
+    for k in range(len(chosen)):
+        out[k] = _link_motion(chain, lever, relative, v_a, v_b, frames, chosen[k], -1, 1.0 - t,
+                              box, reach)
     return out
+
+
+@_jit
+def _fastest(kinematics, chain, values, frame):
+    """``(S,)`` a bound of the speed of ``frame``'s origin (per unit of each
+    segment's parameter) all along each segment between rows of ``values``."""
+    out = np.empty(len(values) - 1)
+    chosen = np.array([frame])
+    for s in range(len(out)):
+        speed, now, growth = _motions(kinematics, chain, values[s], values[s + 1], 0.0,
+                                      chosen)[0]
+        out[s] = min(speed, now + growth)
+    return out
+
+
+def frame_speeds(robot, frame, values):
+    """``(S,)`` a bound of how fast the origin of ``frame`` (any frame of the robot)
+    moves, per unit of each segment's parameter, over the segments between rows
+    of ``values`` (``(C, J)`` values of every joint, as :meth:`Robot.joint_array`
+    gives them): the smaller of ``D`` and ``S + A`` of :func:`speed_bounds`."""
+    kinematics = (*_kinematics(robot), np.eye(4))
+    return _fastest(kinematics, _chain(robot), np.ascontiguousarray(values, np.float64),
+                    robot.frames.index(frame))
 
 
 @_jit
@@ -507,13 +542,12 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
     a_of, b_of, object_a, object_b, standing, exact, boxes = pairs
     flat = np.zeros(len(boxes))
     points, pads, piece_starts, centre, radius, owned = pieces
-    geometry = chain[0]
     lever, relative = _chain_levers(chain, v_a, v_b)
     values = np.empty((1, len(v_a)))
     frames, frames_at = _frames_at(kinematics, v_a, v_b, t.min(), values), t.min()
     _posed(posed, times, frames_at)
     box, reach = np.empty((8, 3)), np.empty(len(v_a))
-    alone, alone_at = np.empty((len(geometry), 3)), np.full(len(geometry), -1.0)
+    alone, alone_at = np.empty((len(chain[2]), 3)), np.full(len(chain[2]), -1.0)
     while True:
         k = -1
         for p in range(len(t)):                    # the pair furthest behind
@@ -526,8 +560,8 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
             frames, frames_at = _frames_at(kinematics, v_a, v_b, now, values), now
             _posed(posed, times, now)
         a, b = a_of[k], b_of[k]
-        pose_a = frames[geometry[a]]
-        pose_b = frames[geometry[b]] if b >= 0 else standing[k]
+        pose_a = frames[a]
+        pose_b = frames[b] if b >= 0 else standing[k]
         remaining = 1.0 - now
         if b >= 0:
             speed, fastest, growth = _link_motion(chain, lever, relative, v_a, v_b, frames, a,

@@ -839,7 +839,8 @@ class CollisionWorld(Scene):
 
     def check_path(self, group: str, configurations: ArrayLike, stop_after_self: bool = False,
                    certify: bool = False, between: bool = False, tolerance: float | None = None,
-                   first_hit: bool = False, margin: float = 0.0) -> "CollisionReports | MotionCheck":
+                   first_hit: bool = False,
+                   margin: float = 0.0) -> "CollisionReports | MotionCheck":
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass.
 
