@@ -146,10 +146,10 @@ def _certify(world, group, configurations, tolerance, margin, times):
     setup = _setup(world, group, robot)
     kinematics = (*setup.kinematics, base)
     count = len(setup.pairs[0])
-    calls, posed, segments = 0, np.zeros(1, np.int64), []
+    calls, posed, segments, done = 0, np.zeros(2), [], 0
     for segment in range(len(values) - 1):
         t, given, steps = np.zeros(count), np.full(count, np.nan), np.zeros(count, np.int64)
-        before = posed[0]
+        posed[1] = -1.0
         while True:
             code, k, bound = _advance(kinematics, setup.chain, setup.pairs, setup.pieces,
                                       values[segment], values[segment + 1], tolerance,
@@ -158,14 +158,16 @@ def _certify(world, group, configurations, tolerance, margin, times):
                 break
             given[k] = _clearance(world, setup, robot, base, q[segment], q[segment + 1], t[k], k)
             calls += 1
-        segments.append((segment, times[min(before, len(times)):min(posed[0], len(times))]))
+        now = int(posed[0])
+        segments.append((segment, times[min(done, len(times)):min(now, len(times))]))
+        done = now
         if code != _FREE:
             at = q[segment] + t[k] * (q[segment + 1] - q[segment])
             clearance = float("nan") if code == _GRAZING else float(bound)
             return MotionCheck(False, segment, float(t[k]), setup.names[k], at, clearance,
-                               tolerance, calls, margin, int(posed[0])), segments
+                               tolerance, calls, margin, done), segments
     return MotionCheck(True, None, None, None, None, None, tolerance, calls, margin,
-                       int(posed[0])), segments
+                       done), segments
 
 
 def _clearance(world, setup, robot, base, q_a, q_b, t, k):
@@ -518,9 +520,14 @@ def frame_speeds(robot, frame, values):
 
 @_jit
 def _posed(posed, times, t):
-    if posed[0] < len(times):
-        times[posed[0]] = t
-    posed[0] += 1
+    """Count (and record, while ``times`` has room) a configuration posed at time
+    ``t``, unless it is the one posed last (a call after :data:`_ASK` starts there)."""
+    if posed[0] > 0 and posed[1] == t:
+        return
+    at = int(posed[0])
+    if at < len(times):
+        times[at] = t
+    posed[0], posed[1] = at + 1, t
 
 
 @_jit
@@ -533,8 +540,8 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
     exact clearances the caller supplies for the pairs it was asked about (NaN:
     none), ``steps`` (P,) each pair's advancement steps; all three carry over
     when the caller comes back after :data:`_ASK`. ``posed[0]`` counts the
-    times forward kinematics ran; the first ``len(times)`` of them are written
-    into ``times``. Codes: :data:`_FREE`;
+    configurations posed (forward kinematics), ``posed[1]`` is the last one's
+    time; the first ``len(times)`` times are written into ``times``. Codes: :data:`_FREE`;
     :data:`_CONTACT`, :data:`_REFUSED` (``margin > 0``) or :data:`_GRAZING` for
     the pair at ``t[pair]``; :data:`_ASK`, the caller is to put the exact
     clearance of ``pair`` at ``t[pair]`` into ``given`` and call again.
