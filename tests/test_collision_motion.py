@@ -275,3 +275,55 @@ def test_the_proof_states_lie_on_the_motion_in_time_order(panda, cell):
     t = (states - q_a) @ (q_b - q_a) / ((q_b - q_a) @ (q_b - q_a))
     np.testing.assert_allclose(states, q_a + t[:, None] * (q_b - q_a), atol=1e-12)
     assert t[0] == 0.0 and np.all(np.diff(t) > 0) and t[-1] < 1.0
+
+
+@pytest.fixture(scope="module", params=[
+    ("talos_data/robots/talos_reduced.urdf", "talos_data/srdf/talos.srdf"),
+    ("pr2_description/urdf/pr2.urdf", "pr2_description/srdf/pr2.srdf")])
+def stock(request):
+    """A humanoid and a two-armed mobile manipulator (branching trees, mimic joints,
+    a prismatic torso) from the example-robot-data wheel, alone in a world."""
+    from test_robot_models import ROBOTS
+
+    urdf, srdf = request.param
+    robot = Robot.from_urdf(ROBOTS / urdf, srdf=ROBOTS / srdf)
+    world = CollisionWorld()
+    world.add_robot(robot)
+    return robot, world
+
+
+@pytest.mark.slow
+def test_stock_trees_self_motions_against_dense_sampling(stock):
+    """Self-collision motions of branching robots: links on two branches share the
+    joints above the branch point, which the bound leaves out; certified free
+    motions are free at 401 states, contacts come before the dense first hit."""
+    robot, world = stock
+    lo, hi = robot.limits
+    lo, hi = np.where(np.isfinite(lo), lo, -np.pi), np.where(np.isfinite(hi), hi, np.pi)
+    rng = np.random.default_rng(0)
+    outcomes = {"free": 0, "colliding": 0}
+    t = np.linspace(0.0, 1.0, 401)
+    while min(outcomes.values()) < 2:
+        q = rng.uniform(lo, hi, (2, len(lo)))
+        q[1] = q[0] + 0.3 * (q[1] - q[0])
+        if world.check_path(robot.name, q).colliding.any():
+            continue
+        result = world.check_motion(robot.name, q[0], q[1])
+        dense = world.check_path(robot.name, q[0] + t[:, None] * (q[1] - q[0])).colliding
+        if result.free:
+            assert not dense.any()
+            outcomes["free"] += 1
+        else:
+            assert dense.any() and result.time <= t[np.argmax(dense)] + 1e-12
+            outcomes["colliding"] += 1
+    # and the speed bounds hold for every link's vertices on these trees too
+    q_a, q_b = q
+    bounds = speed_bounds(robot, q_a, q_b, 0.25)
+    s = np.linspace(0.25, 1.0, 201)
+    poses = robot.link_pose_array(q_a + s[:, None] * (q_b - q_a))
+    for link, (name, mesh) in enumerate(robot.link_meshes.items()):
+        moved = mesh.vertices @ np.swapaxes(poses[:, link, :3, :3], 1, 2) \
+            + poses[:, link, None, :3, 3]
+        length = np.linalg.norm(np.diff(moved, axis=0), axis=2).sum(axis=0).max()
+        assert length <= min(bounds[link, 0] * 0.75, bounds[link, 1] * 0.75 + 0.5
+                             * bounds[link, 2] * 0.75 ** 2) * (1 + 1e-9) + 1e-12, name
