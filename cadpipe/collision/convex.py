@@ -83,10 +83,11 @@ def _segment(ax, ay, az, bx, by, bz):
 
 
 @_jit
-def _triangle(ax, ay, az, bx, by, bz, cx, cy, cz):
+def nearest_on_triangle(ax, ay, az, bx, by, bz, cx, cy, cz):
     """Point of triangle abc nearest the origin, and the corners that span it (bits
     1, 2, 4): the Voronoi regions of its corners, edges and face in turn (Ericson,
-    Real-Time Collision Detection, 5.1.5)."""
+    Real-Time Collision Detection, 5.1.5; a flat triangle by its nearest edge).
+    GJK's simplex step, and the pipe-mesh walk's point-triangle distance."""
     abx, aby, abz = bx - ax, by - ay, bz - az
     acx, acy, acz = cx - ax, cy - ay, cz - az
     d1 = -(abx * ax + aby * ay + abz * az)
@@ -168,8 +169,8 @@ def _nearest(s, n, corners):
         corners[0], corners[1] = 0, 1
         return _keep(s, 2, corners, mask), x, y, z
     if n == 3:
-        x, y, z, mask = _triangle(s[0, 0], s[0, 1], s[0, 2], s[1, 0], s[1, 1], s[1, 2],
-                                  s[2, 0], s[2, 1], s[2, 2])
+        x, y, z, mask = nearest_on_triangle(s[0, 0], s[0, 1], s[0, 2], s[1, 0], s[1, 1],
+                                            s[1, 2], s[2, 0], s[2, 1], s[2, 2])
         corners[0], corners[1], corners[2] = 0, 1, 2
         return _keep(s, 3, corners, mask), x, y, z
     best, bx, by, bz, bmask, face = np.inf, 0.0, 0.0, 0.0, 0, -1
@@ -177,8 +178,8 @@ def _nearest(s, n, corners):
         i, j, k = (f + 1) % 4, (f + 2) % 4, (f + 3) % 4
         if not _beyond(s, i, j, k, f):
             continue
-        x, y, z, mask = _triangle(s[i, 0], s[i, 1], s[i, 2], s[j, 0], s[j, 1], s[j, 2],
-                                  s[k, 0], s[k, 1], s[k, 2])
+        x, y, z, mask = nearest_on_triangle(s[i, 0], s[i, 1], s[i, 2], s[j, 0], s[j, 1],
+                                            s[j, 2], s[k, 0], s[k, 1], s[k, 2])
         d = x * x + y * y + z * z
         if d < best:
             best, bx, by, bz, bmask, face = d, x, y, z, mask, f
