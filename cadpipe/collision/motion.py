@@ -21,17 +21,22 @@ advancement (Mirtich 1996; Schwarzer, Saha and Latombe 2005), pair by pair:
 
    ``D_L = sum_j r_jL |dq_j|`` bounds the speed of every point of ``L`` (per
    unit of ``t``) from ``t`` to the end of the segment; mimic joints count with
-   their own ``dq``.
+   their own ``dq``. Beside it, the joints' velocities at ``t`` move ``L``
+   rigidly, so the greatest speed ``S_L`` of its box now is exact (a corner's),
+   and ``A_L`` bounds how fast any point's speed can grow (:func:`_link_motion`):
+   a point's path from ``t`` to ``t + s`` is at most
+   ``min(D_L s, S_L s + A_L s^2 / 2)`` long.
 2. **How fast a pair can close.** For two links of one robot only the joints
    above one and not the other change their distance (shared joints move both
-   rigidly), so ``D = D_a + D_b`` over the unshared joints; a link against a
-   standing object has ``D = D_L``.
+   rigidly), so the pair's bounds are the sums of both links' over the unshared
+   joints; a link against a standing object has the link's.
 3. **Advancing.** If a pair is apart by ``d`` at ``t``, it cannot touch before
-   ``t + d / D``: that stretch is proven free and the pair advances there. ``d``
-   is the convex pieces' GJK lower bound (:mod:`cadpipe.collision.convex`):
-   compiled, exact to 1e-9 for bodies that are their pieces (boxes, spheres,
-   capsules, convex meshes, pipes of one radius) and a lower bound for the
-   others (a mesh's hull is never nearer than the mesh). Below ``tolerance``
+   the ``s`` at which ``min(D s, S s + A s^2 / 2) = d``: that stretch is proven
+   free and the pair advances there. ``d`` is a lower bound from the objects'
+   oriented boxes, then their convex pieces (:mod:`cadpipe.collision.convex`,
+   GJK): exact to 1e-9 for bodies that are their pieces (boxes, spheres,
+   capsules, convex meshes, pipes of one radius), never above the clearance for
+   the others (a mesh's hull is never nearer than the mesh). Below ``tolerance``
    such a pair gets the exact clearance (:meth:`CollisionWorld.distance_at`).
    At a segment's start the bound is between solids (a body inside another is
    at 0), so the start is checked whole; after it only boundaries can meet first.
@@ -43,10 +48,10 @@ Everything before ``t_c`` is proven free, and at ``t_c`` the pair is closer than
 ``tolerance``, so a real contact follows within about ``tolerance / speed``.
 
 With a ``margin`` (a planner's padding) no contact time is sought: a pair
-advances by ``(d - margin) / D`` and the motion is refused as soon as a pair's
-bound falls below ``2 margin``. "Free" then proves a clearance of at least
-``margin`` all along, each step advances by at least ``margin / D``, and no
-exact query is ever needed.
+advances as if ``d - margin`` were its clearance and the motion is refused as
+soon as a pair's bound falls below ``2 margin``. "Free" then proves a clearance
+of at least ``margin`` all along, each step advances by at least ``margin / D``,
+and no exact query is ever needed.
 
 The whole advancement of a segment is one compiled call (numba), forward
 kinematics included; it comes back to Python only for an exact clearance.
