@@ -14,8 +14,8 @@ advancement (Mirtich 1996; Schwarzer, Saha and Latombe 2005), pair by pair:
    * the chain bound: the joint-origin offsets from ``j`` down to ``L``, plus
      the prismatic travel between them over the segment, plus ``L``'s radius
      about its frame (true in every configuration), and
-   * the lever at ``t``: the farthest corner of ``L``'s oriented bounding box
-     from ``j``'s axis where both stand at ``t``, plus how far the joints between
+   * the lever at ``t``: the farthest corner of ``L``'s box (its mesh's bounds
+     in its own frame) from ``j``'s axis where both stand at ``t``, plus how far the joints between
      ``j`` and ``L`` can move ``L`` relative to ``j`` over the rest of the
      segment (their chain bounds times their steps).
 
@@ -218,7 +218,7 @@ def speed_bounds(robot, q_a, q_b, t=0.0, base=None):
     """``(L, 3)`` per link with geometry (in ``robot.link_meshes`` order), over the
     motion ``q_a -> q_b`` from time ``t`` to its end, per unit of time: a bound
     ``D`` of the speed of any of its points, the greatest speed ``S`` of a
-    point of its oriented box at ``t``, and a bound ``A`` of how fast any
+    point of its box at ``t``, and a bound ``A`` of how fast any
     point's speed can grow; a point's path from ``t`` to ``t + s`` is at most
     ``min(D s, S s + A s^2 / 2)`` long."""
     values = robot.joint_array(np.stack([q_a, q_b]))
@@ -310,14 +310,13 @@ def _chain(robot):
     ``robot.frames`` order) and per joint, as a tuple for the compiled
     advancement (built once per robot: robots do not change): the frame index
     of each link with geometry; per frame the corners (8, 3) of its link's
-    oriented box (the frame's origin for a frame without geometry) and the
-    link's radius about it; ``above`` (F, J), joint ``j`` on the path from the
+    box (the mesh's bounds in the link's frame: as tight as an oriented box for
+    the Panda's steps, and free; the frame's origin for a frame without
+    geometry) and the link's radius about it; ``above`` (F, J), joint ``j`` on the path from the
     base to frame ``f``; ``below`` (F, J, J), joint ``k`` on it after ``j``; per
     joint its kind (turning, sliding), origin offset length, parent frame,
     origin and axis."""
     if robot not in _CHAINS:
-        from cadpipe.collision.bodies import as_body
-
         joints = robot.joints
         parent_joint = {j.child: k for k, j in enumerate(joints)}
         n = len(joints)
@@ -327,7 +326,8 @@ def _chain(robot):
         radius = np.zeros(len(robot.frames))
         for f, link in enumerate(robot.frames):
             if link in robot.link_meshes:
-                corners[f] = box_corners(*as_body(robot.link_shapes[link], link).obb)
+                lo, hi = robot.link_meshes[link].bounds
+                corners[f] = box_corners(0.5 * (lo + hi), np.eye(3), 0.5 * (hi - lo))
                 radius[f] = np.linalg.norm(robot.link_meshes[link].vertices, axis=1).max()
             path = []
             while link in parent_joint:
@@ -546,8 +546,8 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
     none), ``steps`` (P,) each pair's advancement steps; all three carry over
     when the caller comes back after :data:`_ASK`. ``posed[0]`` counts the
     configurations posed (forward kinematics), ``posed[1]`` is the last one's
-    time; the first ``len(times)`` times are written into ``times``. Codes: :data:`_FREE`;
-    :data:`_CONTACT`, :data:`_REFUSED` (``margin > 0``) or :data:`_GRAZING` for
+    time; the first ``len(times)`` times are written into ``times``. Codes:
+    :data:`_FREE`; :data:`_CONTACT`, :data:`_REFUSED` (``margin > 0``) or :data:`_GRAZING` for
     the pair at ``t[pair]``; :data:`_ASK`, the caller is to put the exact
     clearance of ``pair`` at ``t[pair]`` into ``given`` and call again.
     """
@@ -597,9 +597,10 @@ def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, g
             i, j = object_a[k], object_b[k]
             lower, upper = bounds(boxes, flat, 8 * i, 8 * i + 8, pose_a, 8 * j, 8 * j + 8,
                                   pose_b, need, ITERATIONS)
-            if lower < need:
-                lower, upper = body_bounds(points, pads, piece_starts, centre, radius, owned,
-                                           i, pose_a, j, pose_b, need, ITERATIONS)
+            if lower < need:          # the pieces lie inside the boxes: never nearer
+                hull, upper = body_bounds(points, pads, piece_starts, centre, radius, owned,
+                                          i, pose_a, j, pose_b, need, ITERATIONS)
+                lower = max(lower, hull)
             known = exact[k]
         if lower >= need:
             t[k] = 1.0
