@@ -15,17 +15,18 @@ from cadpipe import Mesh, Path, Pipe
 from cadpipe.collision.bodies import as_body
 
 
-def interleaved(runs, repeat):
+def interleaved(runs, repeat, clock=time.perf_counter):
     """Median seconds of each of ``runs`` (name -> callable), timed A B A B ... after
     one untimed round (caches, lazily built trees, JIT compilation); and each run's
-    last result."""
+    last result. ``clock=time.process_time`` reads CPU time, which a shared
+    machine's load inflates less than wall time."""
     results = {name: run() for name, run in runs.items()}
     times = {name: [] for name in runs}
     for _ in range(repeat):
         for name, run in runs.items():
-            start = time.perf_counter()
+            start = clock()
             results[name] = run()
-            times[name].append(time.perf_counter() - start)
+            times[name].append(clock() - start)
     return {name: float(np.median(t)) for name, t in times.items()}, results
 
 

@@ -3,17 +3,21 @@ writes with python-fcl, OMPL's own validator, trimesh and a KD-tree.
 
 Part 1, motions: the Panda in the window cell of ``examples/plan_panda.py`` (a wall
 with a window, a cable duct), random motions of RRTConnect's size (0.5 rad joint-space
-steps from free states). cadpipe's ``check_motion`` (a proof) against the python-fcl
-loop of ``bench_collision.py`` run at every state OMPL's discrete validator would
-check (MoveIt's default resolution, 1% of the joint space's extent). Reported: time per
-motion, time per checked state of the FCL loop, and how many motions each calls free
-that collide at one of 2,000 interpolated states.
+steps from free states) and longer ones (1.5 rad). cadpipe's ``check_motion`` (a proof)
+against the python-fcl loop of ``bench_collision.py`` run at every state OMPL's
+discrete validator would check (MoveIt's default resolution, 1% of the joint space's
+extent), and at the states the proof posed the robot at (``proof_states``). Two
+readings: (a) per state evaluated, cadpipe against the FCL loop over those same
+states; (b) the whole proof against the FCL loop at OMPL's resolution (the stricter
+one). Also how many motions each calls free that collide at one of 2,000
+interpolated states.
 
 Part 2, planning: RRTConnect (range 0.5) from the example's start to its goal, with
-cadpipe's validators against the FCL loop as state validity checker and OMPL's
-discrete motion validator. Reported: plans per second, validity and motion calls, and
-the fraction of planned paths that collide between their states when re-checked at
-400 states per segment (cadpipe must be 0).
+cadpipe's validators (exact, and with a ``--margin`` padding) against the FCL loop as
+state validity checker and OMPL's discrete motion validator. Reported: plans per
+second, wall and CPU time per plan (medians: RRTConnect is randomized), validity and
+motion calls, and the fraction of planned paths that collide between their states
+when re-checked at 400 states per segment (cadpipe must be 0).
 
 Part 3, fixture queries: 500,000 points around a 300-point helix pipe: cadpipe's
 ``locate`` (inside, wall distance, nearest centreline point, arc length, tangent; exact)
@@ -42,7 +46,7 @@ from _common import FclLoop, interleaved, kdtree_baseline  # noqa: E402
 from cadpipe import Path, Pipe  # noqa: E402
 from cadpipe.collision import Robot  # noqa: E402
 from cadpipe.collision.fixture import locate  # noqa: E402
-from cadpipe.collision.motion import robot_collides  # noqa: E402
+from cadpipe.collision.motion import proof_states, robot_collides  # noqa: E402
 
 #: OMPL's default longest valid segment: this fraction of the state space's extent
 RESOLUTION = 0.01
@@ -87,6 +91,7 @@ def part_motions(robot, world, loop, count, repeat, step):
     t = np.linspace(0.0, 1.0, DENSE)
     truth = [robot_collides(world, robot.name, a + t[:, None] * (b - a)).any() for a, b in pairs]
     states = [sampled_states(robot, a, b) for a, b in pairs]
+    posed = [proof_states(world, robot.name, np.stack([a, b])) for a, b in pairs]
 
     def cadpipe():
         return [not world.check_motion(robot.name, a, b).free for a, b in pairs]
@@ -94,45 +99,59 @@ def part_motions(robot, world, loop, count, repeat, step):
     def fcl_sampled():
         return [any(loop(q[None]) for q in s) for s in states]
 
-    seconds, results = interleaved({"cadpipe": cadpipe, "fcl": fcl_sampled}, repeat)
-    checked = sum(len(s) for s in states)
+    def fcl_posed():                  # the FCL loop at the states the proof posed the robot at
+        return [any(loop(q[None]) for q in s) for s in posed]
+
+    runs = {"cadpipe": cadpipe, "fcl": fcl_sampled, "fcl_posed": fcl_posed}
+    wall, results = interleaved(runs, repeat)
+    cpu, _ = interleaved(runs, repeat, clock=time.process_time)
+    sampled, proof = sum(len(s) for s in states), sum(len(s) for s in posed)
     truth = np.array(truth)
     print(f"Part 1: {count} motions of {step} rad in the window cell ({int(truth.sum())} collide "
-          f"between their free ends at one of {DENSE} states); medians of {repeat} runs")
-    for name, label in (("cadpipe", "cadpipe check_motion (proof)"),
-                        ("fcl", f"python-fcl loop at OMPL's resolution ({checked / count:.1f} "
-                                "states/motion)")):
+          f"between their free ends at one of {DENSE} states); medians of {repeat} interleaved "
+          "runs, wall and CPU time")
+    for name, label, per in (("cadpipe", "cadpipe check_motion (proof)", proof),
+                             ("fcl", "python-fcl loop at OMPL's resolution", sampled),
+                             ("fcl_posed", "python-fcl loop at the proof's states", proof)):
+        # the proof's states end where it found contact: FCL there has no miss to count
         said = np.array(results[name])
-        missed = int((truth & ~said).sum())
-        print(f"  {label:58s} {seconds[name] / count * 1e3:8.2f} ms/motion  "
-              f"missed {missed}/{int(truth.sum())}")
-    print(f"  per FCL-checked state: cadpipe {seconds['cadpipe'] / checked * 1e6:.0f} us, "
-          f"FCL {seconds['fcl'] / checked * 1e6:.0f} us "
-          f"(cadpipe/FCL {seconds['cadpipe'] / seconds['fcl']:.2f}x)")
+        missed = "" if name == "fcl_posed" else \
+            f"  missed {int((truth & ~said).sum())}/{int(truth.sum())}"
+        print(f"  {label:40s} {wall[name] / count * 1e3:7.3f} ms/motion wall "
+              f"{cpu[name] / count * 1e3:7.3f} ms CPU  {per / count:6.1f} states/motion"
+              + missed)
+    print(f"  (a) per state evaluated, CPU: cadpipe {cpu['cadpipe'] / proof * 1e6:.1f} us, "
+          f"the FCL loop at those states {cpu['fcl_posed'] / proof * 1e6:.1f} us "
+          f"(cadpipe/FCL {cpu['cadpipe'] / cpu['fcl_posed']:.3f}x)")
+    print(f"  (b) the whole proof against the FCL loop at OMPL's resolution: wall "
+          f"{wall['cadpipe'] / wall['fcl']:.3f}x, CPU {cpu['cadpipe'] / cpu['fcl']:.3f}x")
     few = pairs[:5]                   # the python-fcl loop at the dense states (no proof yet)
-    start = time.perf_counter()
+    start = time.process_time()
     for a, b in few:
         any(loop(q[None]) for q in a + t[:, None] * (b - a))
-    dense = (time.perf_counter() - start) / len(few)
-    print(f"  python-fcl loop at all {DENSE} dense states: {dense * 1e3:.0f} ms/motion "
-          f"(cadpipe {seconds['cadpipe'] / count / dense:.3f}x of it)")
+    dense = (time.process_time() - start) / len(few)
+    print(f"  python-fcl loop at all {DENSE} dense states: {dense * 1e3:.0f} ms CPU/motion "
+          f"(cadpipe {cpu['cadpipe'] / count / dense:.4f}x of it)")
 
 
 def plan_with(robot, world, loop, validators, seconds=60.0):
-    """``(path, states, motions, plan seconds)`` of one RRTConnect plan."""
+    """``(path, states, motions, wall seconds, CPU seconds)`` of one RRTConnect plan;
+    ``validators`` is "fcl" or "cadpipe" with an optional ":MARGIN"."""
     from ompl import geometric
 
     from cadpipe import planning
 
     counter = planning.Counter()
-    start = time.perf_counter()
-    if validators == "cadpipe":
+    start, cpu = time.perf_counter(), time.process_time()
+    if validators.startswith("cadpipe"):
+        margin = float(validators.partition(":")[2] or 0.0)
         try:
             path = planning.plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds,
-                                 counter=counter, step=0.5)
+                                 counter=counter, step=0.5, margin=margin)
         except planning.PlanningError:
             path = None
-        return path, counter.states, counter.motions, time.perf_counter() - start
+        return (path, counter.states, counter.motions, time.perf_counter() - start,
+                time.process_time() - cpu)
     space, bounds = planning.joint_space(robot)
     simple = geometric.SimpleSetup(space)
     simple._keep = bounds                         # OMPL holds it by reference
@@ -157,36 +176,43 @@ def plan_with(robot, world, loop, validators, seconds=60.0):
         ends.append(s)
     simple.setStartAndGoalStates(*ends)
     solved = simple.solve(seconds)
-    if not solved:
-        return None, counter.states, 0, time.perf_counter() - start
-    simple.simplifySolution()
-    path = np.array([[s[k] for k in range(count)] for s in simple.getSolutionPath().getStates()])
-    return path, counter.states, 0, time.perf_counter() - start
+    path = None
+    if solved:
+        simple.simplifySolution()
+        path = np.array([[s[k] for k in range(count)]
+                         for s in simple.getSolutionPath().getStates()])
+    return path, counter.states, 0, time.perf_counter() - start, time.process_time() - cpu
 
 
-def part_planning(robot, world, loop, plans):
+def part_planning(robot, world, loop, plans, margin):
     t = np.linspace(0.0, 1.0, 400)
+    rows = {"cadpipe": [], f"cadpipe:{margin:g}": [], "fcl": []}
     print(f"Part 2: RRTConnect (range 0.5), start -> goal through the window, {plans} plans "
-          "each, interleaved")
-    rows = {"cadpipe": [], "fcl": []}
+          "each, interleaved; medians")
     for _ in range(plans):
         for name in rows:
-            path, states, moves, seconds = plan_with(robot, world, loop, name)
+            path, states, moves, wall, cpu = plan_with(robot, world, loop, name)
             bad = None
             if path is not None:
                 dense = np.concatenate([a + t[:, None] * (b - a) for a, b in
                                         zip(path[:-1], path[1:])])
                 bad = bool(robot_collides(world, robot.name, dense).any())
-            rows[name].append((seconds, states, moves, bad))
-    for name, label in (("cadpipe", "cadpipe validators (continuous motions)"),
-                        ("fcl", "FCL loop + OMPL discrete motion validator")):
-        r = rows[name]
-        solved = [x for x in r if x[3] is not None]
-        print(f"  {label:44s} {len(solved)}/{len(r)} solved  "
-              f"{len(solved) / sum(x[0] for x in r):6.3f} plans/s  "
-              f"median {np.median([x[0] for x in r]):6.2f} s  "
-              f"validity calls {np.median([x[1] for x in r]):7.0f}  "
-              f"colliding between states {sum(x[3] for x in solved)}/{len(solved)}")
+            rows[name].append((wall, cpu, states, moves, bad))
+    labels = {"cadpipe": "cadpipe validators (certified motions)",
+              f"cadpipe:{margin:g}": f"cadpipe, margin {margin:g} m",
+              "fcl": "FCL loop + OMPL's discrete validator"}
+    for name, r in rows.items():
+        solved = [x for x in r if x[4] is not None]
+        wall, cpu = np.median([x[0] for x in r]), np.median([x[1] for x in r])
+        print(f"  {labels[name]:40s} {len(solved)}/{len(r)} solved  "
+              f"{len(solved) / sum(x[0] for x in r):6.3f} plans/s wall  "
+              f"median {wall:6.3f} s wall {cpu:6.3f} s CPU  "
+              f"validity calls {np.median([x[2] for x in r]):6.0f}  "
+              f"motion calls {np.median([x[3] for x in r]):6.0f}  "
+              f"colliding between states {sum(x[4] for x in solved)}/{len(solved)}")
+    cpu = {name: np.median([x[1] for x in r]) for name, r in rows.items()}
+    print(f"  median CPU per plan, cadpipe/FCL: {cpu['cadpipe'] / cpu['fcl']:.2f}x; with the "
+          f"margin {cpu[f'cadpipe:{margin:g}'] / cpu['fcl']:.2f}x")
 
 
 def part_fixture(repeat):
@@ -225,7 +251,8 @@ def part_fixture(repeat):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--motions", type=int, default=100)
-    parser.add_argument("--plans", type=int, default=5)
+    parser.add_argument("--plans", type=int, default=9)
+    parser.add_argument("--margin", type=float, default=0.002)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--parts", default="123")
     args = parser.parse_args()
@@ -234,7 +261,7 @@ def main():
         for step in (0.5, 1.5):
             part_motions(robot, world, loop, args.motions, args.repeat, step)
     if "2" in args.parts:
-        part_planning(robot, world, loop, args.plans)
+        part_planning(robot, world, loop, args.plans, args.margin)
     if "3" in args.parts:
         part_fixture(args.repeat)
 

@@ -15,7 +15,12 @@ questions:
   continuous check of the straight joint-space motion
   (:meth:`CollisionWorld.check_motion`), a proof where OMPL's default
   validator only samples the motion at a resolution, so a thin obstacle or
-  a corner between two samples is never missed.
+  a corner between two samples is never missed. A planner needs only yes or
+  no: OMPL 2's Python bindings hand both ``checkMotion`` overloads to one
+  Python method and take no last valid state back, so a planner that asks
+  for one (KPIECE, say) gets fraction 0 and keeps no part of a refused motion.
+  With a ``margin`` (MoveIt's padding) a motion must keep that clearance, and
+  is refused without looking for its contact.
 
 Every motion a planner keeps has passed the motion validator, so a planned
 path is collision-free between its states, not only at them.
@@ -25,7 +30,7 @@ driven.
 
 import numpy as np
 
-from cadpipe.collision.motion import start_contacts
+from cadpipe.collision.motion import TOLERANCE, check_motion, start_contacts
 from cadpipe.errors import CadpipeError, InputError
 
 PLANNERS = ("RRTConnect", "RRT", "RRTstar", "PRM", "KPIECE1", "BITstar")
@@ -73,38 +78,39 @@ def state_validity_checker(world, group, counter=None):
     return valid
 
 
-def motion_validator(world, group, space_information, counter=None, tolerance=None):
-    """An ``ompl.base.MotionValidator`` backed by :meth:`CollisionWorld.check_motion`.
+def motion_validator(world, group, space_information, counter=None, tolerance=None,
+                     margin=0.0):
+    """An ``ompl.base.MotionValidator`` backed by :meth:`CollisionWorld.check_motion`:
+    a motion is valid when the check proves it free.
 
     ``counter`` (a :class:`Counter`) counts the motions asked about;
-    ``tolerance`` is the motion check's contact tolerance.
-
-    The states OMPL's own discrete validator would look at (its validity
-    checking resolution) are screened first, in one batched
-    ``check_path(first_hit=True)``: one of them colliding is a collision, and
-    the motion is refused without the certificate's slow approach to the
-    contact. A motion is called valid only by the certificate.
+    ``tolerance`` and ``margin`` are the motion check's.
     """
     base, _ = _ompl()
     robot, _ = world.robot(group)
     count = len(robot.actuated)
     counter = Counter() if counter is None else counter
-    step = space_information.getStateValidityCheckingResolution() * \
-        space_information.getMaximumExtent()
+    tolerance = TOLERANCE if tolerance is None else tolerance
 
     class MotionValidator(base.MotionValidator):
         def checkMotion(self, s1, s2, *rest):          # noqa: N802 (OMPL's name)
             counter.motions += 1
-            q_a, q_b = _values(s1, count), _values(s2, count)
-            samples = int(np.ceil(np.linalg.norm(q_b - q_a) / step)) if step > 0 else 0
-            if samples > 1:
-                t = np.arange(1, samples)[:, None] / samples
-                screen = world.check_path(group, q_a + t * (q_b - q_a), first_hit=True)
-                if (screen.pair_colliding & world.checker.chosen(group)).any():
-                    return False
-            return world.check_motion(group, q_a, q_b, tolerance).free
+            q = np.empty((2, count))
+            q[0], q[1] = _values(s1, count), _values(s2, count)
+            return check_motion(world, group, q, tolerance, margin).free
 
     return MotionValidator(space_information)
+
+
+def _margin(margin):
+    """``margin`` as a float >= 0, or :class:`InputError` (before OMPL calls back)."""
+    try:
+        margin = float(margin)
+    except (TypeError, ValueError):
+        margin = float("nan")
+    if not margin >= 0 or not np.isfinite(margin):
+        raise InputError(f"margin must be a number >= 0, got {margin!r}", key="margin")
+    return margin
 
 
 def joint_space(robot):
@@ -123,23 +129,24 @@ def joint_space(robot):
     return space, bounds
 
 
-def setup(world, group, counter=None, planner="RRTConnect", step=None):
+def setup(world, group, counter=None, planner="RRTConnect", step=None, margin=0.0):
     """An ``ompl.geometric.SimpleSetup`` for robot ``group`` of ``world``: the
     joint-limit box as state space, cadpipe's state validity checker and
-    motion validator, and ``planner`` (a name in :data:`PLANNERS`) with its
-    range (longest motion it tries, in joint-space units) set to ``step``
-    when given."""
+    motion validator (with ``margin``), and ``planner`` (a name in
+    :data:`PLANNERS`) with its range (longest motion it tries, in joint-space
+    units) set to ``step`` when given."""
     base, geometric = _ompl()
     if planner not in PLANNERS:
         raise InputError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}",
                          key="planner")
+    margin = _margin(margin)
     robot, _ = world.robot(group)
     space, bounds = joint_space(robot)
     simple = geometric.SimpleSetup(space)
     counter = Counter() if counter is None else counter
     simple.setStateValidityChecker(state_validity_checker(world, group, counter))
     information = simple.getSpaceInformation()
-    validator = motion_validator(world, group, information, counter)
+    validator = motion_validator(world, group, information, counter, margin=margin)
     information.setMotionValidator(validator)
     chosen = getattr(geometric, planner)(information)
     if step is not None:
@@ -153,7 +160,7 @@ def setup(world, group, counter=None, planner="RRTConnect", step=None):
 
 
 def plan(world, group, start, goal, seconds=5.0, planner="RRTConnect", simplify=True,
-         counter=None, step=None):
+         counter=None, step=None, margin=0.0):
     """Plan a collision-free motion of robot ``group`` from ``start`` to ``goal``.
 
     Parameters
@@ -177,6 +184,11 @@ def plan(world, group, start, goal, seconds=5.0, planner="RRTConnect", simplify=
         The planner's range: the longest motion it tries (OMPL's default, a
         fifth of the joint-space extent, when None). Shorter motions are
         cheaper to certify.
+    margin : float
+        A clearance every planned motion keeps (world units; MoveIt's
+        padding): motions are refused as soon as a clearance bound falls
+        below ``2 margin`` (see :meth:`CollisionWorld.check_motion`), so the
+        start and the goal need that much room. 0: any clearance.
 
     Returns
     -------
@@ -187,19 +199,27 @@ def plan(world, group, start, goal, seconds=5.0, planner="RRTConnect", simplify=
     Raises
     ------
     InputError
-        A start or goal that is in collision or outside the limits.
+        A start or goal that is in collision, outside the limits, or within
+        ``2 margin`` of contact.
     PlanningError
         No exact solution within ``seconds``.
     """
+    margin = _margin(margin)
     robot, _ = world.robot(group)
     robot.joint_array(np.stack([np.asarray(start, np.float64), np.asarray(goal, np.float64)]))
     for name, q in (("start", start), ("goal", goal)):
-        hit = start_contacts(world, group, np.asarray(q, np.float64)[None])[0]
+        q = np.asarray(q, np.float64)
+        hit = start_contacts(world, group, q[None])[0]
         if hit is not None:
             raise InputError(f"{name} configuration is in collision ({hit[0]} with {hit[1]})",
                              key=name)
+        room = world.check_motion(group, q, q, margin=2 * margin) if margin > 0 else None
+        if room is not None and not room.free:
+            raise InputError(f"{name} configuration is within 2 * margin = {2 * margin:g} of "
+                             f"contact ({room.pair[0]} with {room.pair[1]}); give a smaller "
+                             "margin", key=name)
     counter = Counter() if counter is None else counter
-    simple = setup(world, group, counter, planner, step)
+    simple = setup(world, group, counter, planner, step, margin)
     space = simple.getStateSpace()
     states = []
     for q in (start, goal):

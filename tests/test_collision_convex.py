@@ -68,3 +68,32 @@ def test_a_needed_clearance_stops_the_search_early_but_stays_a_bound():
     assert np.all(early <= full + 1e-12)
     # what the caller needed is reached wherever the full bound reaches it
     assert np.all(early[full >= 0.05] >= 0.05)
+
+
+def test_bodies_that_are_their_pieces_get_the_clearance_bracketed():
+    """For a convex mesh, a box and a pipe of one radius the two GJK bounds bracket
+    the exact clearance and meet it; other bodies are not marked exact."""
+    from cadpipe.collision.bodies import Surface
+    from cadpipe.collision.convex import body_bounds
+
+    found = bodies()
+    cup = Mesh.from_trimesh(trimesh.creation.box(extents=[0.2, 0.2, 0.2]))
+    cup = Mesh(cup.vertices, cup.faces[cup.face_normals[:, 2] < 0.9])
+    extra = [as_body(Surface(cup), "cup"), as_body(Box((0.1, 0.2, 0.3)), "box")]
+    pieces = Pieces(found + extra)
+    # ellipsoid, box, torus (not convex), duct (one radius), hose (tapered), cup (open), box
+    assert pieces.exact.tolist() == [True, True, False, True, False, False, True]
+    rng = np.random.default_rng(12)
+    checked = 0
+    for other in (1, 3, 6):
+        pose_a, pose_b = poses(rng, 150), poses(rng, 150)
+        for a, b in zip(pose_a, pose_b):
+            lower, upper = body_bounds(*pieces.arrays(), 0, a, other, b, np.inf)
+            exact = narrow.distance(found[0], a, (found + extra)[other], b)[0]
+            assert lower <= exact + 1e-12
+            if exact > 0:
+                assert upper >= exact - 1e-9 and upper - lower <= 1e-6 * (1 + exact)
+                checked += 1
+            else:
+                assert lower <= 0
+    assert checked > 200

@@ -164,6 +164,35 @@ def test_trajectory_path_follows_the_motion_within_half_a_step(panda):
         Path.from_trajectory(panda, WAYPOINTS, frame="tool0", step=0.01)
 
 
+@pytest.mark.slow
+def test_a_safety_pipe_holds_the_motion_however_tight_the_wrist_turns(panda):
+    """A wrist flip (only the last joints move far) bends the hand's path tightly and
+    folds its tube onto itself: the envelope pipe is still one valid solid, and
+    every point within ``r - step / 2`` of the true motion of the hand is inside it
+    (trimesh's ray test as the reference)."""
+    import trimesh
+
+    from cadpipe.solids.validity import check_mesh
+
+    rng = np.random.default_rng(1)
+    lo, hi = panda.limits
+    step, radius = 0.01, 0.03
+    for _ in range(2):
+        q = rng.uniform(lo, hi, (3, len(lo)))
+        q[:, :4] = q[0, :4]
+        path = Path.from_trajectory(panda, q, frame="panda_hand_tcp", step=step)
+        mesh = Pipe(path, radius=radius, envelope=True, sides=12).mesh()
+        assert check_mesh(mesh)["valid"], check_mesh(mesh)["problems"]
+        t = np.linspace(0.0, 1.0, 2001)
+        dense = np.concatenate([a + t[:, None] * (b - a) for a, b in zip(q[:-1], q[1:])])
+        curve = panda.frame_poses(dense, "panda_hand_tcp")[:, :3, 3]
+        away = rng.normal(size=(5000, 3))
+        away *= (radius - step / 2) * rng.uniform(0.0, 1.0, (5000, 1)) ** (1 / 3) \
+            / np.linalg.norm(away, axis=1)[:, None]
+        points = curve[rng.integers(0, len(curve), 5000)] + away
+        assert trimesh.Trimesh(mesh.vertices, mesh.faces).contains(points).all()
+
+
 def test_trajectory_usd_animates_every_link_with_its_own_op(panda, tmp_path):
     from pxr import Usd, UsdGeom
 

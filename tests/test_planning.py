@@ -22,18 +22,27 @@ def scene():
     return robot, plan_panda.window_cell(robot)
 
 
+def _dense(path, count=400):
+    t = np.linspace(0.0, 1.0, count)
+    return np.concatenate([a + t[:, None] * (b - a) for a, b in zip(path[:-1], path[1:])])
+
+
 @pytest.mark.slow
-def test_planned_paths_are_free_at_every_dense_state_between_waypoints(scene):
+@pytest.mark.parametrize("planner, margin", [("RRTConnect", 0.0), ("RRTConnect", 0.002),
+                                             ("KPIECE1", 0.0)])
+def test_planned_paths_are_free_at_every_dense_state_between_waypoints(scene, planner, margin):
+    """Exact motions, a MoveIt-style padding, and a planner that asks OMPL's
+    checkMotion for a last valid state (KPIECE1; the bindings give none back)."""
     robot, world = scene
     counter = Counter()
     path = plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds=60.0,
-                counter=counter, step=0.5)
+                counter=counter, step=0.5, planner=planner, margin=margin)
     np.testing.assert_allclose(path[0], plan_panda.START)
     np.testing.assert_allclose(path[-1], plan_panda.GOAL)
     assert counter.states > 0 and counter.motions > 0
-    t = np.linspace(0.0, 1.0, 400)
-    dense = np.concatenate([a + t[:, None] * (b - a) for a, b in zip(path[:-1], path[1:])])
-    assert not robot_collides(world, robot.name, dense).any()
+    assert not robot_collides(world, robot.name, _dense(path)).any()
+    for a, b in zip(path[:-1], path[1:]):       # each motion keeps the margin asked for
+        assert world.check_motion(robot.name, a, b, margin=margin).free
     # and the straight line from start to goal does collide: planning was needed
     assert not world.check_motion(robot.name, plan_panda.START, plan_panda.GOAL).free
 
@@ -68,3 +77,12 @@ def test_bad_planning_input(scene):
         setup(world, robot.name, planner="Dijkstra")
     with pytest.raises(InputError, match="outside its limits"):
         plan(world, robot.name, plan_panda.START, plan_panda.GOAL + 10, seconds=0.1)
+    for margin in (-0.01, "wide", float("nan")):
+        with pytest.raises(InputError, match="margin") as caught:
+            plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds=0.1,
+                 margin=margin)
+        assert caught.value.key == "margin"
+    # the start beside the duct has a few centimetres of room, not half a metre
+    with pytest.raises(InputError, match="start configuration is within 2 \\* margin") as caught:
+        plan(world, robot.name, plan_panda.START, plan_panda.GOAL, seconds=0.1, margin=0.25)
+    assert caught.value.key == "start"

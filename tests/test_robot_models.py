@@ -167,6 +167,21 @@ def test_packages_resolve_through_every_route(tmp_path, monkeypatch):
     assert resolve("meshes/a.stl", urdf) == urdf.parent / "meshes" / "a.stl"
 
 
+def test_a_stock_urdf_copied_away_finds_its_meshes_in_the_wheel(tmp_path, monkeypatch):
+    """Walking up from a copy finds no package: the wheel's share folder does."""
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    monkeypatch.delenv("AMENT_PREFIX_PATH", raising=False)
+    source = ROBOTS / SAMPLE[0][0]
+    copy = tmp_path / "mine.urdf"
+    shutil.copy(source, copy)
+    assert "package://example-robot-data/" in copy.read_text()
+    robot = Robot.from_urdf(copy)
+    reference = Robot.from_urdf(source)
+    assert list(robot.link_meshes) == list(reference.link_meshes)
+    for link, mesh in robot.link_meshes.items():
+        np.testing.assert_array_equal(mesh.vertices, reference.link_meshes[link].vertices)
+
+
 def test_missing_mesh_is_an_input_error_naming_it(tmp_path):
     urdf = tmp_path / "r.urdf"
     urdf.write_text("<robot name='r'><link name='a'><collision><geometry>"

@@ -23,6 +23,7 @@ import numba
 import numpy as np
 
 from cadpipe.collision.bounds import box_levels
+from cadpipe.collision.convex import nearest_on_triangle
 from cadpipe.collision.hierarchy import move_points
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -67,41 +68,12 @@ class TriangleTree:
 
 @_jit
 def _closest_on_triangle(p, t):
-    """The point of triangle ``t`` (9,) nearest to ``p`` (Ericson, "Real-Time
-    Collision Detection", 5.1.5), as three coordinates."""
-    ax, ay, az, bx, by, bz, cx, cy, cz = t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8]
-    abx, aby, abz = bx - ax, by - ay, bz - az
-    acx, acy, acz = cx - ax, cy - ay, cz - az
-    apx, apy, apz = p[0] - ax, p[1] - ay, p[2] - az
-    d1 = abx * apx + aby * apy + abz * apz
-    d2 = acx * apx + acy * apy + acz * apz
-    if d1 <= 0 and d2 <= 0:
-        return ax, ay, az
-    bpx, bpy, bpz = p[0] - bx, p[1] - by, p[2] - bz
-    d3 = abx * bpx + aby * bpy + abz * bpz
-    d4 = acx * bpx + acy * bpy + acz * bpz
-    if d3 >= 0 and d4 <= d3:
-        return bx, by, bz
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0 and d1 >= 0 and d3 <= 0:
-        v = d1 / (d1 - d3)
-        return ax + v * abx, ay + v * aby, az + v * abz
-    cpx, cpy, cpz = p[0] - cx, p[1] - cy, p[2] - cz
-    d5 = abx * cpx + aby * cpy + abz * cpz
-    d6 = acx * cpx + acy * cpy + acz * cpz
-    if d6 >= 0 and d5 <= d6:
-        return cx, cy, cz
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0 and d2 >= 0 and d6 <= 0:
-        w = d2 / (d2 - d6)
-        return ax + w * acx, ay + w * acy, az + w * acz
-    va = d3 * d6 - d5 * d4
-    if va <= 0 and d4 - d3 >= 0 and d5 - d6 >= 0:
-        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        return bx + w * (cx - bx), by + w * (cy - by), bz + w * (cz - bz)
-    den = va + vb + vc
-    v, w = vb / den, vc / den
-    return ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w
+    """The point of triangle ``t`` (9,) nearest to ``p``, as three coordinates
+    (:func:`cadpipe.collision.convex.nearest_on_triangle`, about ``p``)."""
+    x, y, z, _ = nearest_on_triangle(t[0] - p[0], t[1] - p[1], t[2] - p[2], t[3] - p[0],
+                                     t[4] - p[1], t[5] - p[2], t[6] - p[0], t[7] - p[1],
+                                     t[8] - p[2])
+    return x + p[0], y + p[1], z + p[2]
 
 
 @_jit

@@ -4,46 +4,22 @@ A trajectory is a sequence of joint configurations with the straight
 joint-space motion between them (as planners and
 :meth:`CollisionWorld.check_motion` mean it). The frame's origin moves on a
 curve, not on the chords between the waypoints' positions, so each segment
-is sampled densely enough that the polyline follows it: with the bound of
-:mod:`cadpipe.collision.motion` (how far a point below the joints can move for
-a joint step), samples ``dt`` apart in the segment parameter keep every point
-of the curve within ``step / 2`` of the nearer sample when
-``dt <= step / D``. A pipe of radius ``r`` around the polyline therefore
-holds the ``r - step / 2`` neighbourhood of the true curve.
+is sampled densely enough that the polyline follows it: with a bound ``V`` of
+the origin's speed all along the segment (:func:`cadpipe.collision.motion.frame_speeds`,
+the motion check's bound), samples ``dt <= step / V`` apart in the segment
+parameter are at most ``step`` apart along the curve, so every point of the
+curve is within ``step / 2`` of the nearer sample. A pipe of radius ``r``
+around the polyline built with ``envelope=True`` (its polygon's flats at
+``r``) therefore holds the ``r - step / 2`` neighbourhood of the true curve.
 """
 
 import numpy as np
 
+from cadpipe.collision.motion import frame_speeds
 from cadpipe.errors import InputError
 
 #: most samples per segment (a guard against a step far below the motion's size)
 MAX_SAMPLES = 100_000
-
-
-def frame_travel(robot, frame, values):
-    """``(S,)`` bound of how far the origin of ``frame`` moves over each segment
-    between consecutive rows of ``values`` (``(C, J)`` values of every joint, as
-    :meth:`Robot.joint_array` gives them)."""
-    joints = robot.joints
-    parent_joint = {j.child: k for k, j in enumerate(joints)}
-    path, link = [], frame
-    while link in parent_joint:
-        path.append(parent_joint[link])
-        link = joints[path[-1]].parent
-    path.reverse()                                  # base to frame
-    step = np.abs(np.diff(values, axis=0))          # (S, J)
-    travel = np.zeros(len(step))
-    for at, j in enumerate(path):
-        kind = joints[j].kind
-        if kind == "prismatic":
-            travel += step[:, j]
-        elif kind in ("revolute", "continuous"):
-            below = path[at + 1:]
-            lever = sum(np.linalg.norm(joints[k].origin[:3, 3]) for k in below)
-            lever = lever + sum(np.maximum(np.abs(values[:-1, k]), np.abs(values[1:, k]))
-                                for k in below if joints[k].kind == "prismatic")
-            travel += lever * step[:, j]
-    return travel
 
 
 def trajectory_points(robot, configurations, frame, step, base=None):
@@ -81,11 +57,11 @@ def trajectory_points(robot, configurations, frame, step, base=None):
         raise InputError("a trajectory needs at least two configurations",
                          key="configurations")
     q = np.asarray(configurations, np.float64)
-    counts = np.maximum(1, np.ceil(frame_travel(robot, frame, values) / step)).astype(np.int64)
+    speeds = frame_speeds(robot, frame, values)
+    counts = np.maximum(1, np.ceil(speeds / step)).astype(np.int64)
     if counts.max() > MAX_SAMPLES:
         raise InputError(f"step {step:g} would need {int(counts.max())} samples on one "
-                         f"segment; use a step of at least "
-                         f"{float(frame_travel(robot, frame, values).max()) / MAX_SAMPLES:.3g}",
+                         f"segment; use a step of at least {speeds.max() / MAX_SAMPLES:.3g}",
                          key="step")
     segment = np.repeat(np.arange(len(counts)), counts)
     fraction = np.concatenate([np.arange(n) / n for n in counts])

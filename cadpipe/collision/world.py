@@ -810,7 +810,7 @@ class CollisionWorld(Scene):
         return self.checker.check(stop_after_self, certify, first_hit, only)
 
     def check_motion(self, group: str, q_a: ArrayLike, q_b: ArrayLike,
-                     tolerance: float | None = None) -> "MotionCheck":
+                     tolerance: float | None = None, margin: float = 0.0) -> "MotionCheck":
         """Certify the straight joint-space motion of robot ``group`` from ``q_a`` to
         ``q_b``; see :mod:`cadpipe.collision.motion` for the bound.
 
@@ -822,6 +822,11 @@ class CollisionWorld(Scene):
             Joint values over ``robot.actuated`` at the start and the end.
         tolerance : float, optional
             Clearance (world units) counted as contact.
+        margin : float
+            A planner's padding (world units): with ``margin > 0`` the motion
+            is free only if it keeps at least ``margin`` from everything, and is
+            refused as soon as a clearance bound falls below ``2 margin``,
+            without a contact time.
 
         Returns
         -------
@@ -829,11 +834,13 @@ class CollisionWorld(Scene):
             ``free`` proves the whole motion free; otherwise where it first
             comes within ``tolerance`` of contact.
         """
-        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance)
+        return self.check_path(group, [q_a, q_b], between=True, tolerance=tolerance,
+                               margin=margin)
 
     def check_path(self, group: str, configurations: ArrayLike, stop_after_self: bool = False,
                    certify: bool = False, between: bool = False, tolerance: float | None = None,
-                   first_hit: bool = False) -> "CollisionReports | MotionCheck":
+                   first_hit: bool = False,
+                   margin: float = 0.0) -> "CollisionReports | MotionCheck":
         """:meth:`check` at each of many joint configurations of the robot ``group``,
         in one vectorized pass.
 
@@ -859,6 +866,8 @@ class CollisionWorld(Scene):
             so ``reports.colliding.argmax()`` is the first hit when
             ``reports.colliding.any()``. A motion check (``between``) always
             stops at its first contact.
+        margin : float
+            With ``between``: a planner's padding, as for :meth:`check_motion`.
 
         Returns
         -------
@@ -872,7 +881,8 @@ class CollisionWorld(Scene):
             from cadpipe.collision import motion
 
             return motion.check_motion(self, group, configurations,
-                                       motion.TOLERANCE if tolerance is None else tolerance)
+                                       motion.TOLERANCE if tolerance is None else tolerance,
+                                       margin)
         robot, base, ids = self._robot(group)
         poses = robot.link_pose_array(configurations, base)
         return self.checker.check_moving(ids, poses, stop_after_self, certify, first_hit)
