@@ -66,18 +66,18 @@ class TriangleTree:
 
 
 @_jit
-def _closest_on_triangle(p, t):
-    """The point of triangle ``t`` (9,) nearest to ``p`` (Ericson, "Real-Time
-    Collision Detection", 5.1.5), as three coordinates."""
+def _closest_on_triangle(px, py, pz, t):
+    """The point of triangle ``t`` (9,) nearest to ``(px, py, pz)`` (Ericson,
+    "Real-Time Collision Detection", 5.1.5), as three coordinates."""
     ax, ay, az, bx, by, bz, cx, cy, cz = t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8]
     abx, aby, abz = bx - ax, by - ay, bz - az
     acx, acy, acz = cx - ax, cy - ay, cz - az
-    apx, apy, apz = p[0] - ax, p[1] - ay, p[2] - az
+    apx, apy, apz = px - ax, py - ay, pz - az
     d1 = abx * apx + aby * apy + abz * apz
     d2 = acx * apx + acy * apy + acz * apz
     if d1 <= 0 and d2 <= 0:
         return ax, ay, az
-    bpx, bpy, bpz = p[0] - bx, p[1] - by, p[2] - bz
+    bpx, bpy, bpz = px - bx, py - by, pz - bz
     d3 = abx * bpx + aby * bpy + abz * bpz
     d4 = acx * bpx + acy * bpy + acz * bpz
     if d3 >= 0 and d4 <= d3:
@@ -86,7 +86,7 @@ def _closest_on_triangle(p, t):
     if vc <= 0 and d1 >= 0 and d3 <= 0:
         v = d1 / (d1 - d3)
         return ax + v * abx, ay + v * aby, az + v * abz
-    cpx, cpy, cpz = p[0] - cx, p[1] - cy, p[2] - cz
+    cpx, cpy, cpz = px - cx, py - cy, pz - cz
     d5 = abx * cpx + aby * cpy + abz * cpz
     d6 = acx * cpx + acy * cpy + acz * cpz
     if d6 >= 0 and d5 <= d6:
@@ -105,15 +105,15 @@ def _closest_on_triangle(p, t):
 
 
 @_jit
-def _segments_closest(p, u, q, v):
+def _segments_closest(px, py, pz, ux, uy, uz, qx, qy, qz, vx, vy, vz):
     """Parameters ``(s, t)`` of the closest points of ``p + s u`` and ``q + t v``
     (as :func:`cadpipe.collision.capsules.segment_params`)."""
-    rx, ry, rz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
-    uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
-    vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    ur = u[0] * rx + u[1] * ry + u[2] * rz
-    vr = v[0] * rx + v[1] * ry + v[2] * rz
+    rx, ry, rz = px - qx, py - qy, pz - qz
+    uu = ux * ux + uy * uy + uz * uz
+    vv = vx * vx + vy * vy + vz * vz
+    uv = ux * vx + uy * vy + uz * vz
+    ur = ux * rx + uy * ry + uz * rz
+    vr = vx * rx + vy * ry + vz * rz
     tiny = np.finfo(np.float64).tiny
     inv_uu = 1.0 / uu if uu > tiny else 0.0
     inv_vv = 1.0 / vv if vv > tiny else 0.0
@@ -131,38 +131,42 @@ def _segments_closest(p, u, q, v):
 def segment_triangle(a, b, t, near, far):
     """Distance from segment ``a``-``b`` (3,) to triangle ``t`` (9,), with the
     closest points written to ``near`` (on the segment) and ``far`` (on the
-    triangle). 0 where the segment pierces the triangle."""
-    u = b - a
+    triangle). 0 where the segment pierces the triangle. In scalars: a walk
+    calls it at every leaf, where a small array each step cost more than the
+    arithmetic."""
+    ax, ay, az = a[0], a[1], a[2]
+    ux, uy, uz = b[0] - ax, b[1] - ay, b[2] - az
     # pierced: the segment crosses the triangle's plane inside the triangle
-    e1 = np.array([t[3] - t[0], t[4] - t[1], t[5] - t[2]])
-    e2 = np.array([t[6] - t[0], t[7] - t[1], t[8] - t[2]])
-    n = np.cross(e1, e2)
-    da = n[0] * (a[0] - t[0]) + n[1] * (a[1] - t[1]) + n[2] * (a[2] - t[2])
-    db = n[0] * (b[0] - t[0]) + n[1] * (b[1] - t[1]) + n[2] * (b[2] - t[2])
+    e1x, e1y, e1z = t[3] - t[0], t[4] - t[1], t[5] - t[2]
+    e2x, e2y, e2z = t[6] - t[0], t[7] - t[1], t[8] - t[2]
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    da = nx * (ax - t[0]) + ny * (ay - t[1]) + nz * (az - t[2])
+    db = nx * (b[0] - t[0]) + ny * (b[1] - t[1]) + nz * (b[2] - t[2])
     if (da <= 0 <= db or db <= 0 <= da) and da != db:
-        x = a + (da / (da - db)) * u
-        cx, cy, cz = _closest_on_triangle(x, t)
-        if (cx - x[0]) ** 2 + (cy - x[1]) ** 2 + (cz - x[2]) ** 2 <= 1e-30 * (
-                1.0 + x[0] * x[0] + x[1] * x[1] + x[2] * x[2]):
-            near[:] = x
+        f = da / (da - db)
+        xx, xy, xz = ax + f * ux, ay + f * uy, az + f * uz
+        cx, cy, cz = _closest_on_triangle(xx, xy, xz, t)
+        if (cx - xx) ** 2 + (cy - xy) ** 2 + (cz - xz) ** 2 <= 1e-30 * (
+                1.0 + xx * xx + xy * xy + xz * xz):
+            near[0], near[1], near[2] = xx, xy, xz
             far[0], far[1], far[2] = cx, cy, cz
             return 0.0
     best = np.inf
     for k in range(2):                           # the segment's ends against the triangle
         p = a if k == 0 else b
-        cx, cy, cz = _closest_on_triangle(p, t)
+        cx, cy, cz = _closest_on_triangle(p[0], p[1], p[2], t)
         d = np.sqrt((cx - p[0]) ** 2 + (cy - p[1]) ** 2 + (cz - p[2]) ** 2)
         if d < best:
             best = d
-            near[:] = p
+            near[0], near[1], near[2] = p[0], p[1], p[2]
             far[0], far[1], far[2] = cx, cy, cz
     for k in range(3):                           # the segment against each edge
-        q = t[3 * k:3 * k + 3]
-        r = t[3 * ((k + 1) % 3):3 * ((k + 1) % 3) + 3]
-        v = r - q
-        s, w = _segments_closest(a, u, q, v)
-        px, py, pz = a[0] + s * u[0], a[1] + s * u[1], a[2] + s * u[2]
-        qx, qy, qz = q[0] + w * v[0], q[1] + w * v[1], q[2] + w * v[2]
+        q, r = 3 * k, 3 * ((k + 1) % 3)
+        qx, qy, qz = t[q], t[q + 1], t[q + 2]
+        vx, vy, vz = t[r] - qx, t[r + 1] - qy, t[r + 2] - qz
+        s, w = _segments_closest(ax, ay, az, ux, uy, uz, qx, qy, qz, vx, vy, vz)
+        px, py, pz = ax + s * ux, ay + s * uy, az + s * uz
+        qx, qy, qz = qx + w * vx, qy + w * vy, qz + w * vz
         d = np.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
         if d < best:
             best = d
@@ -198,7 +202,6 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
     stack_m = np.empty(4 * (depth_m + depth_c + 2), np.int64)
     stack_c = np.empty(len(stack_m), np.int64)
     stack_gap = np.empty(len(stack_m))
-    ends = np.empty((2, 3))
     on_axis, on_triangle = np.empty(3), np.empty(3)
     for p in range(len(poses)):
         m = poses[p]
@@ -223,9 +226,8 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                 if index[nc, 2] < 0:
                     continue
                 tri = nm - leaves_m
-                ends[0], ends[1] = moved[index[nc, 0]], moved[index[nc, 1]]
-                d = segment_triangle(ends[0], ends[1], triangles[tri], on_axis, on_triangle) \
-                    - table[nc, 9]
+                d = segment_triangle(moved[index[nc, 0]], moved[index[nc, 1]], triangles[tri],
+                                     on_axis, on_triangle) - table[nc, 9]
                 if d < best:
                     best = d
                     unit[p] = index[nc, 2]

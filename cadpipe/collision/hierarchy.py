@@ -176,9 +176,9 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     room = 64 * len(poses)
     while True:
         left = np.empty((room, 3), np.int64)         # (pose, unit of a, unit of b)
-        count = _walk_kernel(ta.table, ta.index, ta.depth, tb.points, tb.table, tb.index,
-                             tb.depth, poses, cap, stop_below is not None, gap, units, params,
-                             left)
+        count = walk_trees(ta.table, ta.index, ta.depth, tb.points, tb.table, tb.index,
+                           tb.depth, poses, cap, stop_below is not None, gap, units, params,
+                           left)
         if count >= 0:
             break
         room *= 4
@@ -196,8 +196,8 @@ def move_points(m, points, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _walk_kernel(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b, poses, cap,
-                 yes_no, gap, units, params, left):
+def walk_trees(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b, poses, cap,
+               yes_no, gap, units, params, left):
     """Walk both trees in lockstep for each pose, depth first (``table``, ``index``:
     :class:`CapsuleTree`'s packed nodes).
 
@@ -226,14 +226,17 @@ def _walk_kernel(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b,
             top -= 1
             na, nb = stack_a[top], stack_b[top]
             fa, fb = table_a[na], table_b[nb]
-            q0 = moved[index_b[nb, 0]]
-            v = moved[index_b[nb, 1]] - q0
-            u = fa[3:6]
-            rx, ry, rz = fa[0] - q0[0], fa[1] - q0[1], fa[2] - q0[2]
+            # scalars throughout: a small array per node pair cost more than its arithmetic
+            k0, k1 = index_b[nb, 0], index_b[nb, 1]
+            x0, y0, z0 = moved[k0, 0], moved[k0, 1], moved[k0, 2]
+            x1, y1, z1 = moved[k1, 0], moved[k1, 1], moved[k1, 2]
+            v0, v1, v2 = x1 - x0, y1 - y0, z1 - z0
+            u0, u1, u2 = fa[3], fa[4], fa[5]
+            rx, ry, rz = fa[0] - x0, fa[1] - y0, fa[2] - z0
             uu, vv = fa[6], fb[6]
-            uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-            ur = u[0] * rx + u[1] * ry + u[2] * rz
-            vr = v[0] * rx + v[1] * ry + v[2] * rz
+            uv = u0 * v0 + u1 * v1 + u2 * v2
+            ur = u0 * rx + u1 * ry + u2 * rz
+            vr = v0 * rx + v1 * ry + v2 * rz
             square = uu * vv
             den = square - uv * uv
             s = 0.0
@@ -241,8 +244,7 @@ def _walk_kernel(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b,
                 s = min(max((uv * vr - ur * vv) / max(den, 1e-300), 0.0), 1.0)
             t = min(max((uv * s + vr) * fb[7], 0.0), 1.0)
             s = min(max((uv * t - ur) * fa[7], 0.0), 1.0)
-            dx, dy, dz = rx + s * u[0] - t * v[0], ry + s * u[1] - t * v[1], \
-                rz + s * u[2] - t * v[2]
+            dx, dy, dz = rx + s * u0 - t * v0, ry + s * u1 - t * v1, rz + s * u2 - t * v2
             dist = np.sqrt(dx * dx + dy * dy + dz * dz)
             upper = dist - fa[8] - fb[8]
             lower = dist - fa[9] - fb[9]

@@ -49,6 +49,7 @@ from cadpipe.solids.transform import as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow
+from cadpipe.collision import packed
 from cadpipe.collision.bodies import as_body
 
 if TYPE_CHECKING:                       # the answer types of the optional queries
@@ -62,6 +63,9 @@ STAGES = ("allowed", "aabb", "kdop", "obb", "hull", "certificate", "fcl", "conta
 _CODE = {name: i for i, name in enumerate(STAGES)}
 assert (_CODE["aabb"], _CODE["kdop"], _CODE["obb"], _CODE["hull"]) == \
     (funnel.AABB, funnel.KDOP, funnel.OBB, funnel.HULL)
+assert (_CODE["allowed"], _CODE["not checked"]) == (funnel.ALLOWED, funnel.NOT_CHECKED)
+assert (_CODE["fcl"], _CODE["containment"], _CODE["analytic"]) == \
+    (narrow.FCL, narrow.CONTAINMENT, narrow.ANALYTIC)
 #: configurations per pass of the broad phase (bounds the entry arrays' memory)
 CONFIGURATION_CHUNK = 2048
 #: the first chunk of ``check_path(first_hit=True)``, doubled each pass after it
@@ -435,6 +439,7 @@ class _Layout:
         self.chosen = {}
         self._bodies = tuple(bodies)
         self.chain = np.array([b.kind == "chain" for b in bodies], bool)
+        self.closed = np.array([b.closed for b in bodies], bool)
 
     @cached_property
     def pieces(self):
@@ -442,6 +447,17 @@ class _Layout:
         from cadpipe.collision.convex import Pieces
 
         return Pieces(self._bodies)
+
+    @cached_property
+    def trees(self):
+        """The arrays of the exact chain tests inside the funnel kernel
+        (:func:`cadpipe.collision.narrow.packed_arrays`): triangle trees only for
+        meshes in a pair with a chain that is not allowed."""
+        table = self.table
+        paired = ~table.allowed & (self.chain[table.first] != self.chain[table.second])
+        near_chain = np.zeros(len(self.chain), bool)
+        near_chain[table.first[paired]] = near_chain[table.second[paired]] = True
+        return narrow.packed_arrays(self._bodies, near_chain & ~self.chain)
 
     def place(self, ids, poses):
         """Bounds of objects ``ids`` (E,) at ``poses`` (E, 4, 4): world 18-DOPs
@@ -467,14 +483,14 @@ class Checker:
     def __init__(self, scene):
         self.scene = scene
         self._layout_key, self._layout = None, None
-        self._answers = {}                 # certify -> _Answers
+        self._records = {}                 # certify -> (_Answers, packed record)
 
     @property
     def layout(self):
         if self._layout_key != self.scene.layout_version:
             self._layout = _Layout(self.scene)
             self._layout_key = self.scene.layout_version
-            self._answers.clear()
+            self._records.clear()
             self._placed = _Placed(self._layout)
         return self._layout
 
@@ -507,25 +523,16 @@ class Checker:
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
         others are ``"allowed"`` or ``"not checked"``."""
-        layout, scene = self.layout, self.scene
-        table, placed = layout.table, self._placed
-        answers = self._answers.get(bool(certify))
-        if answers is None:
-            answers = self._answers[bool(certify)] = _Answers(len(table))
-        versions = scene._pose_versions
-        exact = np.empty(len(table), np.int64)
+        scene, table = self.scene, self.layout.table
+        answers, record = self._record(bool(certify))
+        deferred = np.empty(len(table), np.int64)
+        codes, colliding = np.empty(len(table), np.int8), np.empty(len(table), bool)
         hits = np.zeros(2, bool)                     # (a self pair, another pair) collides
-        count = funnel.refresh(layout.points, layout.pads, layout.starts, layout.slack,
-                               layout.obb_centre, layout.obb_axes, layout.half, scene._poses,
-                               versions, placed.at, placed.kdop, placed.centre, placed.axes,
-                               table.first, table.second, table.same, chosen, answers.at_a,
-                               answers.at_b, answers.code, answers.colliding, exact, hits,
-                               None if certify else layout.pieces.arrays(), layout.chain)
-        if answers.certificates:                     # pairs the boxes have decided since
-            for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
-                del answers.certificates[k]
-        # the exact phase, self pairs first; stop where asked to
-        for pair in exact[:count].tolist():
+        count = funnel.refresh(record, chosen, first_hit, stop_after_self, deferred, codes,
+                               colliding, hits)
+        # what the kernel left (meshes, probes, certificates), self pairs first
+        versions = scene._pose_versions
+        for pair in deferred[:count].tolist():
             own = table.same[pair]
             if (first_hit and hits.any()) or (stop_after_self and not own and hits[0]):
                 break
@@ -534,14 +541,43 @@ class Checker:
                                                  scene._poses[j][None], certify)
             answers.store(pair, code[0], touching[0], versions, table, certs.get(0))
             hits[0 if own else 1] |= touching[0]
+            codes[pair], colliding[pair] = code[0], touching[0]
         stopped = stop_after_self and bool(hits[0])
-        codes, colliding = np.empty(len(table), np.int8), np.empty(len(table), bool)
-        funnel.summarize(chosen, table.same, table.allowed, stopped, table.first, table.second,
-                         versions, answers.at_a, answers.at_b, answers.code, answers.colliding,
-                         codes, colliding, _CODE["allowed"], _CODE["not checked"])
-        certificates = {k: c for k, c in answers.certificates.items()
-                        if codes[k] == _CODE["certificate"]} if answers.certificates else {}
+        if stopped and count:                        # a self pair found here stops the rest
+            codes[~table.same & ~table.allowed] = _CODE["not checked"]
+            colliding[~table.same] = False
+        certificates = {}
+        if answers.certificates:
+            for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
+                del answers.certificates[k]          # pairs the boxes have decided since
+            certificates = {k: c for k, c in answers.certificates.items()
+                            if codes[k] == _CODE["certificate"]}
         return CollisionReport(table, codes, colliding, certificates, stopped)
+
+    def _record(self, certify):
+        """``(answers, record)``: each pair's stored answers with ``certify`` and the
+        :class:`~cadpipe.collision.packed.Packed` record of the layout, placed
+        bounds and answers that :func:`~cadpipe.collision.funnel.refresh` works
+        on; made once per layout."""
+        found = self._records.get(certify)
+        if found is None:
+            layout, placed, scene = self.layout, self._placed, self.scene
+            answers = _Answers(len(layout.table))
+            table, pieces = layout.table, layout.pieces
+            record = packed.pack(
+                points=layout.points, pads=layout.pads, starts=layout.starts,
+                slack=layout.slack, obb_centre=layout.obb_centre, obb_axes=layout.obb_axes,
+                half=layout.half, chain=layout.chain, closed=layout.closed,
+                first=table.first, second=table.second, same=table.same,
+                allowed=table.allowed, piece_points=pieces.points, piece_pads=pieces.pads,
+                piece_starts=pieces.piece_starts, piece_centre=pieces.centre,
+                piece_radius=pieces.radius, pieces=pieces.pieces, **layout.trees,
+                poses=scene._poses, versions=scene._pose_versions, placed_at=placed.at,
+                kdop=placed.kdop, centre=placed.centre, axes=placed.axes, at_a=answers.at_a,
+                at_b=answers.at_b, code=answers.code, colliding=answers.colliding,
+                certify=certify)
+            found = self._records[certify] = (answers, record)
+        return found
 
     def _involving(self, group):
         """(P,) mask of the pairs with an object of ``group``."""
