@@ -34,7 +34,7 @@ import numpy as np
 
 from cadpipe.collision.bounds import KDOP_DIRECTIONS
 from cadpipe.collision.convex import FUNNEL_ITERATIONS, body_gap
-from cadpipe.collision.narrow import UNSETTLED, settle
+from cadpipe.collision.narrow import UNSETTLED, relative_into, settle
 
 #: stage codes :func:`decide` writes (indices into ``world.STAGES``)
 AABB, KDOP, OBB, HULL = 1, 2, 3, 4
@@ -67,23 +67,26 @@ def place(points, pads, starts, slack, obb_centre, obb_axes, ids, poses, kdop, c
 def _place_one(points, pads, starts, slack, obb_centre, obb_axes, i, m, kdop, centre, axes):
     """Object ``i`` at pose ``m``: its (2, 9) 18-DOP, (3,) OBB centre, (3, 3) axes."""
     margin = slack[i] + _EPS64 * max(abs(m[0, 3]), abs(m[1, 3]), abs(m[2, 3]))
+    # each world direction turned into the object's frame; the support points are
+    # the outer loop, so the 18 running extremes are independent of each other (the
+    # same values as a loop per direction, about 1.3x sooner)
+    u = np.empty((9, 3))
     for d in range(9):
-        # the world direction turned into the object's frame
-        u0 = KDOP_DIRECTIONS[d, 0] * m[0, 0] + KDOP_DIRECTIONS[d, 1] * m[1, 0] \
-            + KDOP_DIRECTIONS[d, 2] * m[2, 0]
-        u1 = KDOP_DIRECTIONS[d, 0] * m[0, 1] + KDOP_DIRECTIONS[d, 1] * m[1, 1] \
-            + KDOP_DIRECTIONS[d, 2] * m[2, 1]
-        u2 = KDOP_DIRECTIONS[d, 0] * m[0, 2] + KDOP_DIRECTIONS[d, 1] * m[1, 2] \
-            + KDOP_DIRECTIONS[d, 2] * m[2, 2]
-        low, high = np.inf, -np.inf
-        for s in range(starts[i], starts[i + 1]):
-            p = u0 * points[s, 0] + u1 * points[s, 1] + u2 * points[s, 2]
-            low = min(low, p - pads[s])
-            high = max(high, p + pads[s])
+        for c in range(3):
+            u[d, c] = KDOP_DIRECTIONS[d, 0] * m[0, c] + KDOP_DIRECTIONS[d, 1] * m[1, c] \
+                + KDOP_DIRECTIONS[d, 2] * m[2, c]
+        kdop[0, d], kdop[1, d] = np.inf, -np.inf
+    for s in range(starts[i], starts[i + 1]):
+        x, y, z, pad = points[s, 0], points[s, 1], points[s, 2], pads[s]
+        for d in range(9):
+            p = u[d, 0] * x + u[d, 1] * y + u[d, 2] * z
+            kdop[0, d] = min(kdop[0, d], p - pad)
+            kdop[1, d] = max(kdop[1, d], p + pad)
+    for d in range(9):
         offset = KDOP_DIRECTIONS[d, 0] * m[0, 3] + KDOP_DIRECTIONS[d, 1] * m[1, 3] \
             + KDOP_DIRECTIONS[d, 2] * m[2, 3]
-        kdop[0, d] = low + offset - margin
-        kdop[1, d] = high + offset + margin
+        kdop[0, d] = kdop[0, d] + offset - margin
+        kdop[1, d] = kdop[1, d] + offset + margin
     for r in range(3):
         centre[r] = m[r, 3] + m[r, 0] * obb_centre[i, 0] + m[r, 1] * obb_centre[i, 1] \
             + m[r, 2] * obb_centre[i, 2]
@@ -150,7 +153,7 @@ def _decide_pair(kdop, centre, axes, half_a, half_b, a, b, pieces, chain, i, m_i
     ``chain`` (N,) marks the chains (two chains skip it, their exact test is
     analytic anyway)."""
     found = _bounds_apart(kdop, centre, axes, half_a, half_b, a, b)
-    if found == NARROW and pieces is not None and not (chain[i] and chain[j]):
+    if found == NARROW and pieces is not None and not (chain[i] or chain[j]):
         points, pads, starts, ball_centre, ball_radius, owned = pieces
         if body_gap(points, pads, starts, ball_centre, ball_radius, owned, i, m_i, j, m_j,
                     0.0, FUNNEL_ITERATIONS) > 0.0:
@@ -190,7 +193,8 @@ def refresh(w, chosen, first_hit, stop_after_self, deferred, out_code, out_colli
     exactly here when both objects are chains or one is (the capsule walks of
     :func:`cadpipe.collision.narrow.settle`), and otherwise written to
     ``deferred`` for the Python narrow phase (meshes through FCL, probes inside
-    meshes, ``w.certify``). Every answer found is stored in ``w``. ``hits``
+    meshes, ``w.certify``), with the second object's pose in the first's frame
+    in ``w.left_poses``. Every answer found is stored in ``w``. ``hits``
     (2,) says whether a chosen pair whose answer holds collides: a self pair,
     another pair. With ``first_hit`` the pairs stop at the first collision,
     with ``stop_after_self`` the other pairs are skipped after a self-collision.
@@ -228,7 +232,7 @@ def refresh(w, chosen, first_hit, stop_after_self, deferred, out_code, out_colli
             found = _bounds_apart(w.kdop, w.centre, w.axes, w.half[a], w.half[b], a, b)
             touching = False
             if found == NARROW and not w.certify:
-                if not (w.chain[a] and w.chain[b]) and body_gap(
+                if not (w.chain[a] or w.chain[b]) and body_gap(
                         w.piece_points, w.piece_pads, w.piece_starts, w.piece_centre,
                         w.piece_radius, w.pieces, a, w.poses[a], b, w.poses[b], 0.0,
                         FUNNEL_ITERATIONS) > 0.0:
@@ -237,6 +241,7 @@ def refresh(w, chosen, first_hit, stop_after_self, deferred, out_code, out_colli
                     found, touching = settle(w, a, b, rel)
             if found == NARROW:
                 deferred[count] = k
+                relative_into(w.poses[a:a + 1], w.poses[b:b + 1], w.left_poses[count:count + 1])
                 count += 1
                 continue
             w.code[k], w.colliding[k] = found, touching

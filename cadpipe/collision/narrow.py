@@ -45,12 +45,13 @@ def relative(pose_a, pose_b):
     if pose_a.shape != pose_b.shape:
         pose_a, pose_b = (np.ascontiguousarray(p) for p in np.broadcast_arrays(pose_a, pose_b))
     out = np.empty(pose_a.shape)
-    _relative(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
+    relative_into(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
     return out
 
 
 @_jit
-def _relative(pose_a, pose_b, out):
+def relative_into(pose_a, pose_b, out):
+    """:func:`relative` of (E, 4, 4) poses into ``out`` (E, 4, 4), compiled."""
     for e in range(len(pose_a)):
         a, b, o = pose_a[e], pose_b[e], out[e]
         for r in range(3):
@@ -246,15 +247,27 @@ def _yes_no():
 
 
 def _mesh_mesh(body_a, body_b, rel):
+    return np.array([_fcl_touch(body_a, body_b, pose) for pose in rel], bool)
+
+
+def _fcl_touch(body_a, body_b, rel):
+    """Whether FCL finds the meshes' triangles touching, b at ``rel`` (4, 4) in a's
+    frame."""
     import fcl
 
-    request = _yes_no()
-    anchor, mover = body_a.fcl_anchor, body_b.fcl_mover
-    touching = np.zeros(len(rel), bool)
-    for e, pose in enumerate(rel):
-        mover.setTransform(_transform(pose))
-        touching[e] = fcl.collide(anchor, mover, request, fcl.CollisionResult()) > 0
-    return touching
+    mover = body_b.fcl_mover
+    mover.setTransform(_transform(rel))
+    return fcl.collide(body_a.fcl_anchor, mover, _yes_no(), fcl.CollisionResult()) > 0
+
+
+def mesh_pair(body_a, body_b, rel):
+    """:func:`collide` of two meshes at one relative pose ``rel`` (4, 4), b's pose in
+    a's frame: ``(touching, contained)``, two bools. What a single state asks of the
+    pairs its funnel kernel leaves, without the batch's array handling."""
+    if _fcl_touch(body_a, body_b, rel):
+        return True, False
+    contained = bool(_contained(body_a, body_b, rel[None])[0])
+    return contained, contained
 
 
 def _mesh_chain(mesh_body, chain_body, rel, yes_no):
@@ -284,7 +297,7 @@ def settle(w, i, j, rel):
     the same answers.
     """
     if w.chain[i] and w.chain[j]:
-        _relative(w.poses[i:i + 1], w.poses[j:j + 1], rel)
+        relative_into(w.poses[i:i + 1], w.poses[j:j + 1], rel)
         gap, units, params = np.empty(1), np.empty((1, 2), np.int64), np.empty((1, 2))
         left = np.empty((_LEFT, 3), np.int64)
         count = walk_trees(w.tree_table[w.tree_at[i]:w.tree_at[i + 1]],
@@ -301,7 +314,7 @@ def settle(w, i, j, rel):
     mesh, other = (j, i) if w.chain[i] else (i, j)
     if w.boxes_at[mesh] == w.boxes_at[mesh + 1]:         # no triangle tree packed
         return UNSETTLED, False
-    _relative(w.poses[mesh:mesh + 1], w.poses[other:other + 1], rel)
+    relative_into(w.poses[mesh:mesh + 1], w.poses[other:other + 1], rel)
     gap, unit, near, far = np.empty(1), np.empty(1, np.int64), np.empty((1, 3)), \
         np.empty((1, 3))
     chain_mesh.walk(w.mesh_boxes[w.boxes_at[mesh]:w.boxes_at[mesh + 1]],

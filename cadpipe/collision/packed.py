@@ -72,6 +72,8 @@ FIELDS = (
     ("placed_at", _I1), ("kdop", _F3), ("centre", _F2), ("axes", _F3),
     # each pair's last answer and the pose versions it holds for
     ("at_a", _I1), ("at_b", _I1), ("code", types.int8[::1]), ("colliding", _B1),
+    # per pair left to Python, in the order left: the second object's pose in the first's
+    ("left_poses", _F3),
     # certify: no hull stage, and every exact pair is left to Python (the certificate)
     ("certify", types.boolean),
 )
@@ -86,7 +88,7 @@ def _new(points, pads, starts, slack, obb_centre, obb_axes, half, chain, closed,
          mesh_boxes, mesh_triangles, boxes_at, triangles_at, mesh_depth,
          probes, probes_at, extremes, inside_lo, inside_hi, inside_low, inside_high,
          inside_slack, poses, versions, placed_at, kdop, centre, axes,
-         at_a, at_b, code, colliding, certify):
+         at_a, at_b, code, colliding, left_poses, certify):
     # the fields one by one, in FIELDS order (numba sets no field by name at run time)
     w = structref.new(PACKED)
     w.points, w.pads, w.starts = points, pads, starts
@@ -106,6 +108,7 @@ def _new(points, pads, starts, slack, obb_centre, obb_axes, half, chain, closed,
     w.poses, w.versions = poses, versions
     w.placed_at, w.kdop, w.centre, w.axes = placed_at, kdop, centre, axes
     w.at_a, w.at_b, w.code, w.colliding = at_a, at_b, code, colliding
+    w.left_poses = left_poses
     w.certify = certify
     return w
 

@@ -198,7 +198,7 @@ class CollisionReport:
     @property
     def colliding(self):
         """Whether any pair touches."""
-        return bool(self.pair_colliding.any())
+        return bool(np.count_nonzero(self.pair_colliding))     # a planner asks this per state
 
     @property
     def allowed(self):
@@ -401,9 +401,9 @@ class Scene:
         """Re-pose the links of the robot added as ``group`` (one configuration: a
         sequence over ``robot.actuated`` or a mapping by joint name)."""
         robot, base, ids = self._robot(group)
-        # the links were added one after another: a slice moves them without fancy indexing
-        self._moved(slice(ids[0], ids[0] + len(ids)) if len(ids) else ids,
-                    robot.link_poses_at(joints, base))
+        # the links were added one after another, from ids[0] on
+        robot.place_links(joints, base, self._poses, self._pose_versions,
+                          int(ids[0]) if len(ids) else 0)
 
 
 # -- the checker ---------------------------------------------------------------------
@@ -523,29 +523,18 @@ class Checker:
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
         others are ``"allowed"`` or ``"not checked"``."""
-        scene, table = self.scene, self.layout.table
-        answers, record = self._record(bool(certify))
-        deferred = np.empty(len(table), np.int64)
-        codes, colliding = np.empty(len(table), np.int8), np.empty(len(table), bool)
+        table = self.layout.table
+        answers, record, left_poses = self._record(bool(certify))
+        count = len(table.first)
+        deferred = np.empty(count, np.int64)
+        codes, colliding = np.empty(count, np.int8), np.empty(count, bool)
         hits = np.zeros(2, bool)                     # (a self pair, another pair) collides
-        count = funnel.refresh(record, chosen, first_hit, stop_after_self, deferred, codes,
-                               colliding, hits)
-        # what the kernel left (meshes, probes, certificates), self pairs first
-        versions = scene._pose_versions
-        for pair in deferred[:count].tolist():
-            own = table.same[pair]
-            if (first_hit and hits.any()) or (stop_after_self and not own and hits[0]):
-                break
-            i, j = table.first[pair], table.second[pair]
-            code, touching, certs = self._settle(i, j, scene._poses[i][None],
-                                                 scene._poses[j][None], certify)
-            answers.store(pair, code[0], touching[0], versions, table, certs.get(0))
-            hits[0 if own else 1] |= touching[0]
-            codes[pair], colliding[pair] = code[0], touching[0]
+        left = funnel.refresh(record, chosen, first_hit, stop_after_self, deferred, codes,
+                              colliding, hits)
         stopped = stop_after_self and bool(hits[0])
-        if stopped and count:                        # a self pair found here stops the rest
-            codes[~table.same & ~table.allowed] = _CODE["not checked"]
-            colliding[~table.same] = False
+        if left:
+            stopped = self._settle_deferred(deferred[:left], left_poses, answers, hits, codes,
+                                            colliding, stop_after_self, certify, first_hit)
         certificates = {}
         if answers.certificates:
             for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
@@ -554,15 +543,53 @@ class Checker:
                             if codes[k] == _CODE["certificate"]}
         return CollisionReport(table, codes, colliding, certificates, stopped)
 
+    def _settle_deferred(self, pairs, left_poses, answers, hits, codes, colliding,
+                         stop_after_self, certify, first_hit):
+        """Settle the ``pairs`` the funnel kernel left (meshes through FCL, probes,
+        certificates), self pairs first, in order, stopping where asked to; store
+        each answer and write it into the report's ``codes`` and ``colliding``.
+        ``left_poses`` (P, 4, 4) holds each pair's relative pose, in the same
+        order. Returns whether a self-collision stopped the check."""
+        scene, table = self.scene, self.layout.table
+        versions, bodies = scene._pose_versions, scene._bodies
+        hit_self, hit_other = bool(hits[0]), bool(hits[1])
+        for n, pair in enumerate(pairs.tolist()):
+            own = table.same[pair]
+            if (first_hit and (hit_self or hit_other)) or (stop_after_self and not own
+                                                           and hit_self):
+                break
+            i, j = table.first[pair], table.second[pair]
+            certificate = None
+            if not certify and bodies[i].kind == bodies[j].kind == "mesh":
+                touching, contained = narrow.mesh_pair(bodies[i], bodies[j], left_poses[n])
+                code = _CODE["containment" if contained else "fcl"]
+            else:
+                found, hit, certs = self._settle(i, j, scene._poses[i][None],
+                                                 scene._poses[j][None], certify)
+                code, touching, certificate = found[0], bool(hit[0]), certs.get(0)
+            answers.store(pair, code, touching, versions, table, certificate)
+            codes[pair], colliding[pair] = code, touching
+            if own:
+                hit_self |= touching
+            else:
+                hit_other |= touching
+        stopped = stop_after_self and hit_self
+        if stopped:                                  # a self-collision stops the other pairs
+            codes[~table.same & ~table.allowed] = _CODE["not checked"]
+            colliding[~table.same] = False
+        return stopped
+
     def _record(self, certify):
-        """``(answers, record)``: each pair's stored answers with ``certify`` and the
-        :class:`~cadpipe.collision.packed.Packed` record of the layout, placed
-        bounds and answers that :func:`~cadpipe.collision.funnel.refresh` works
-        on; made once per layout."""
+        """``(answers, record, left_poses)``: each pair's stored answers with
+        ``certify``, the :class:`~cadpipe.collision.packed.Packed` record of the
+        layout, placed bounds and answers that
+        :func:`~cadpipe.collision.funnel.refresh` works on, and its relative poses
+        of the pairs it leaves; made once per layout."""
         found = self._records.get(certify)
         if found is None:
             layout, placed, scene = self.layout, self._placed, self.scene
             answers = _Answers(len(layout.table))
+            left_poses = np.empty((len(layout.table), 4, 4))
             table, pieces = layout.table, layout.pieces
             record = packed.pack(
                 points=layout.points, pads=layout.pads, starts=layout.starts,
@@ -575,8 +602,8 @@ class Checker:
                 poses=scene._poses, versions=scene._pose_versions, placed_at=placed.at,
                 kdop=placed.kdop, centre=placed.centre, axes=placed.axes, at_a=answers.at_a,
                 at_b=answers.at_b, code=answers.code, colliding=answers.colliding,
-                certify=certify)
-            found = self._records[certify] = (answers, record)
+                left_poses=left_poses, certify=certify)
+            found = self._records[certify] = (answers, record, left_poses)
         return found
 
     def _involving(self, group):
