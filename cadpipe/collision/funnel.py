@@ -182,7 +182,7 @@ def _holds(w, k):
 
 
 @_jit
-def refresh(w, chosen, first_hit, stop_after_self, deferred, out_code, out_colliding, hits):
+def refresh(w, chosen, first_hit, stop_after_self, out_code, out_colliding):
     """One state where the objects stand, decided in one call: ``w`` is the world's
     :class:`~cadpipe.collision.packed.Packed` record.
 
@@ -191,26 +191,27 @@ def refresh(w, chosen, first_hit, stop_after_self, deferred, out_code, out_colli
     its objects' poses goes down the funnel, self pairs (``w.same``) first, each
     group in pair order; a pair no bounding volume separates is settled
     exactly here when both objects are chains or one is (the capsule walks of
-    :func:`cadpipe.collision.narrow.settle`), and otherwise written to
-    ``deferred`` for the Python narrow phase (meshes through FCL, probes inside
-    meshes, ``w.certify``), with the second object's pose in the first's frame
-    in ``w.left_poses``. Every answer found is stored in ``w``. ``hits``
-    (2,) says whether a chosen pair whose answer holds collides: a self pair,
+    :func:`cadpipe.collision.narrow.settle`), and otherwise left to the Python
+    narrow phase (meshes through FCL, probes inside meshes, ``w.certify``):
+    listed in ``w.left`` with the second object's pose in the first's frame in
+    ``w.left_poses``. Every answer found is stored in ``w``. ``w.hits`` (2,)
+    says whether a chosen pair whose answer holds collides: a self pair,
     another pair. With ``first_hit`` the pairs stop at the first collision,
     with ``stop_after_self`` the other pairs are skipped after a self-collision.
 
     The report's (P,) stage codes and collisions go to ``out_code`` and
     ``out_colliding``: a pair's answer where it holds (other pairs only when no
     self-collision stopped the check), :data:`ALLOWED` for allowed pairs,
-    :data:`NOT_CHECKED` for the rest (the deferred pairs among them). Returns
-    how many pairs were deferred.
+    :data:`NOT_CHECKED` for the rest (the pairs left among them). Returns how
+    many pairs were left.
     """
-    versions = w.versions
+    versions, hits = w.versions, w.hits
     for i in range(len(versions)):
         if w.placed_at[i] != versions[i]:
             _place_one(w.points, w.pads, w.starts, w.slack, w.obb_centre, w.obb_axes, i,
                        w.poses[i], w.kdop[i], w.centre[i], w.axes[i])
             w.placed_at[i] = versions[i]
+    hits[0], hits[1] = False, False
     if first_hit:                        # a collision already known answers at once
         for k in range(len(w.first)):
             if chosen[k] and w.colliding[k] and _holds(w, k):
@@ -238,9 +239,10 @@ def refresh(w, chosen, first_hit, stop_after_self, deferred, out_code, out_colli
                         FUNNEL_ITERATIONS) > 0.0:
                     found = HULL
                 else:
-                    found, touching = settle(w, a, b, rel)
+                    found, touching = settle(w, a, w.poses[a:a + 1], b, w.poses[b:b + 1],
+                                             rel)
             if found == NARROW:
-                deferred[count] = k
+                w.left[count] = k
                 relative_into(w.poses[a:a + 1], w.poses[b:b + 1], w.left_poses[count:count + 1])
                 count += 1
                 continue

@@ -42,8 +42,9 @@ def relative(pose_a, pose_b):
     """Poses of b in a's frame, ``inv(pose_a) @ pose_b``, vectorized over leading axes
     (rigid poses: the inverse is the transposed rotation)."""
     pose_a, pose_b = np.asarray(pose_a, np.float64), np.asarray(pose_b, np.float64)
-    if pose_a.shape != pose_b.shape:
-        pose_a, pose_b = (np.ascontiguousarray(p) for p in np.broadcast_arrays(pose_a, pose_b))
+    if pose_a.shape != pose_b.shape:          # own copies: numba warns on broadcast views
+        shape = np.broadcast_shapes(pose_a.shape, pose_b.shape)
+        pose_a, pose_b = (np.broadcast_to(p, shape).copy() for p in (pose_a, pose_b))
     out = np.empty(pose_a.shape)
     relative_into(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
     return out
@@ -286,18 +287,19 @@ def _mesh_chain(mesh_body, chain_body, rel, yes_no):
 
 # -- yes / no, one pose, compiled ------------------------------------------------------
 @_jit
-def settle(w, i, j, rel):
-    """:func:`collide` of objects ``i < j`` where they stand in the packed world ``w``
-    (:class:`~cadpipe.collision.packed.Packed`), compiled: ``(code, touching)``, the
-    code :data:`ANALYTIC` (two chains), :data:`FCL` (a chain and a mesh) or
-    :data:`UNSETTLED` for what is left to :func:`collide`: two meshes (FCL), a
-    chain that may lie inside a mesh (the probe test), tapered unit pairs the
-    walk does not settle (the exact round-cone gap). ``rel`` (1, 4, 4) is
-    scratch. The same walks on the same relative pose as :func:`collide`, so
-    the same answers.
+def settle(w, i, pose_i, j, pose_j, rel):
+    """:func:`collide` of objects ``i`` and ``j`` of the packed world ``w``
+    (:class:`~cadpipe.collision.packed.Packed`) at poses ``pose_i``, ``pose_j``
+    (1, 4, 4), compiled: ``(code, touching)``, the code :data:`ANALYTIC` (two
+    chains), :data:`FCL` (a chain and a mesh) or :data:`UNSETTLED` for what is
+    left to :func:`collide`: two meshes (FCL), a chain that may lie inside a
+    mesh (the probe test), tapered unit pairs the walk does not settle (the
+    exact round-cone gap), a mesh whose triangle tree is not packed. ``rel``
+    (1, 4, 4) is scratch. The same walks on the same relative pose as
+    :func:`collide`, so the same answers.
     """
     if w.chain[i] and w.chain[j]:
-        relative_into(w.poses[i:i + 1], w.poses[j:j + 1], rel)
+        relative_into(pose_i, pose_j, rel)
         gap, units, params = np.empty(1), np.empty((1, 2), np.int64), np.empty((1, 2))
         left = np.empty((_LEFT, 3), np.int64)
         count = walk_trees(w.tree_table[w.tree_at[i]:w.tree_at[i + 1]],
@@ -314,7 +316,10 @@ def settle(w, i, j, rel):
     mesh, other = (j, i) if w.chain[i] else (i, j)
     if w.boxes_at[mesh] == w.boxes_at[mesh + 1]:         # no triangle tree packed
         return UNSETTLED, False
-    relative_into(w.poses[mesh:mesh + 1], w.poses[other:other + 1], rel)
+    if w.chain[i]:
+        relative_into(pose_j, pose_i, rel)
+    else:
+        relative_into(pose_i, pose_j, rel)
     gap, unit, near, far = np.empty(1), np.empty(1, np.int64), np.empty((1, 3)), \
         np.empty((1, 3))
     chain_mesh.walk(w.mesh_boxes[w.boxes_at[mesh]:w.boxes_at[mesh + 1]],

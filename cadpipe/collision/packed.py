@@ -72,8 +72,9 @@ FIELDS = (
     ("placed_at", _I1), ("kdop", _F3), ("centre", _F2), ("axes", _F3),
     # each pair's last answer and the pose versions it holds for
     ("at_a", _I1), ("at_b", _I1), ("code", types.int8[::1]), ("colliding", _B1),
-    # per pair left to Python, in the order left: the second object's pose in the first's
-    ("left_poses", _F3),
+    # the last call's pairs left to Python (pair indices, in order; the second object's
+    # pose in the first's frame), and whether a self pair, another pair collides
+    ("left", _I1), ("left_poses", _F3), ("hits", _B1),
     # certify: no hull stage, and every exact pair is left to Python (the certificate)
     ("certify", types.boolean),
 )
@@ -88,7 +89,7 @@ def _new(points, pads, starts, slack, obb_centre, obb_axes, half, chain, closed,
          mesh_boxes, mesh_triangles, boxes_at, triangles_at, mesh_depth,
          probes, probes_at, extremes, inside_lo, inside_hi, inside_low, inside_high,
          inside_slack, poses, versions, placed_at, kdop, centre, axes,
-         at_a, at_b, code, colliding, left_poses, certify):
+         at_a, at_b, code, colliding, left, left_poses, hits, certify):
     # the fields one by one, in FIELDS order (numba sets no field by name at run time)
     w = structref.new(PACKED)
     w.points, w.pads, w.starts = points, pads, starts
@@ -108,7 +109,7 @@ def _new(points, pads, starts, slack, obb_centre, obb_axes, half, chain, closed,
     w.poses, w.versions = poses, versions
     w.placed_at, w.kdop, w.centre, w.axes = placed_at, kdop, centre, axes
     w.at_a, w.at_b, w.code, w.colliding = at_a, at_b, code, colliding
-    w.left_poses = left_poses
+    w.left, w.left_poses, w.hits = left, left_poses, hits
     w.certify = certify
     return w
 
@@ -131,3 +132,25 @@ def pack(**arrays):
     if arrays:
         raise TypeError(f"not a packed field: {', '.join(arrays)}")
     return _new(*values)
+
+
+class Direct:
+    """``kernel`` called through its compiled entry point for the argument types of
+    its first call (:meth:`numba.core.dispatcher.Dispatcher.compile`: from numba's
+    cache, or compiled then).
+
+    numba's dispatcher types every argument on every call: about 0.9 us for
+    :func:`~cadpipe.collision.funnel.refresh`'s record and five arrays, where the
+    kernel itself takes 0.4 us for a state nothing moved in. A caller that
+    always passes the same types need not pay it. Only for such internal calls:
+    an argument of another type would be misread, not converted.
+    """
+
+    def __init__(self, kernel):
+        self.kernel, self._entry = kernel, None
+
+    def __call__(self, *args):
+        entry = self._entry
+        if entry is None:
+            entry = self._entry = self.kernel.compile(tuple(numba.typeof(a) for a in args))
+        return entry(*args)

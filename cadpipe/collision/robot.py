@@ -22,6 +22,8 @@ import numpy as np
 
 from cadpipe.errors import InputError, MeshError, SpecError
 from cadpipe.geometry.mesh import Mesh
+from cadpipe.collision import kinematics
+from cadpipe.collision.packed import Direct
 
 MOVING = ("revolute", "continuous", "prismatic")
 
@@ -148,14 +150,12 @@ class Robot:
         One configuration may also be an ``(A,)`` sequence, a mapping by name
         (missing names take :attr:`default`), or None for :attr:`default`.
         """
-        from cadpipe.collision.kinematics import joint_values
-
         k = self._kinematics
         q = self._checked_shape(configurations)
         q = q[None] if q.ndim == 1 else q
         values = np.empty((len(q), len(self.joints)))
-        self._raise_outside(q, joint_values(q, k["limits"], k["actuated"], k["mimics"],
-                                            k["mimic_terms"], values))
+        self._raise_outside(q, kinematics.joint_values(q, k["limits"], k["actuated"],
+                                                       k["mimics"], k["mimic_terms"], values))
         return values
 
     def _checked_shape(self, configurations):
@@ -222,11 +222,10 @@ class Robot:
     def _frame_pose_array(self, q, base, frames):
         """``(C, F, 4, 4)`` poses of the frames ``frames`` (F,) (indices into
         :attr:`frames`) at ``(C, J)`` values of every joint."""
-        from cadpipe.collision.kinematics import chain_poses
-
         k = self._kinematics
-        return chain_poses(q, k["terms"], k["kinds"], k["joint_links"],
-                           _EYE if base is None else np.asarray(base, np.float64), frames)
+        return kinematics.chain_poses(q, k["terms"], k["kinds"], k["joint_links"],
+                                      _EYE if base is None else np.asarray(base, np.float64),
+                                      frames)
 
     def frame_poses(self, configurations, frame, base=None):
         """World pose of ``frame`` (any link of the URDF, with or without geometry,
@@ -262,8 +261,8 @@ class Robot:
         (a sequence over :attr:`actuated`, a mapping by name, or None): the batch
         of one of :meth:`link_pose_array`."""
         poses = np.empty((len(self.link_meshes), 4, 4))
-        self.place_links(joints, _EYE if base is None else np.asarray(base, np.float64),
-                         poses, np.zeros(len(poses), np.int64), 0)
+        base = _EYE if base is None else np.ascontiguousarray(base, np.float64)
+        self.place_links(joints, base, poses, np.zeros(len(poses), np.int64), 0)
         return poses
 
     def place_links(self, joints, base, poses, versions, start):
@@ -273,15 +272,13 @@ class Robot:
         scene's :meth:`~cadpipe.collision.CollisionWorld.set_joints` in one
         compiled call (:func:`cadpipe.collision.kinematics.place_links`).
         Nothing is written when a value is outside its limits."""
-        from cadpipe.collision.kinematics import place_links
-
         k = self._kinematics
         q = self._checked_shape(joints)
         if q.ndim == 2 and len(q) != 1:
             raise InputError(f"one configuration of robot {self.name} expected, got "
                              f"{len(q)}; use link_pose_array() for many", key="joints")
         q = q.reshape(1, -1)
-        self._raise_outside(q, place_links(q, k["limits"], k["actuated"], k["mimics"],
+        self._raise_outside(q, _place_links(q, k["limits"], k["actuated"], k["mimics"],
                                            k["mimic_terms"], k["terms"], k["kinds"],
                                            k["joint_links"], base, k["geometry"], poses,
                                            versions, start))
@@ -383,6 +380,8 @@ def _kinematics(joints, base, geometry):
 
 
 _EYE = np.eye(4)
+#: one state's kinematics without numba's per-call dispatch (the types never vary)
+_place_links = Direct(kinematics.place_links)
 
 
 def _joint(j):
