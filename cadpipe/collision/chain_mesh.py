@@ -37,7 +37,8 @@ class TriangleTree:
     faces : (F, 3) int
 
     A perfect binary tree in heap order over the triangles sorted along a Morton
-    curve: ``boxes`` (nodes, 6) holds each node's ``lo``, ``hi``; leaf ``k`` (at
+    curve: ``boxes`` (nodes, 7) holds each node's ``lo``, ``hi`` and size (the
+    sum of its extents); leaf ``k`` (at
     depth ``depth``) holds triangle ``order[k]`` or none (-1); ``triangles``
     (leaves, 9) the leaves' corners, row by row.
     """
@@ -62,7 +63,9 @@ class TriangleTree:
         low, high = np.full((leaves, 3), np.inf), np.full((leaves, 3), -np.inf)
         low[:count], high[:count] = corners[order].min(axis=1), corners[order].max(axis=1)
         lo, hi = box_levels(low, high)
-        self.boxes = np.ascontiguousarray(np.concatenate([lo, hi], axis=1))
+        # per node lo, hi and its size (the sum of its extents, for the walk's split rule)
+        size = hi[:, 0] - lo[:, 0] + hi[:, 1] - lo[:, 1] + hi[:, 2] - lo[:, 2]
+        self.boxes = np.ascontiguousarray(np.concatenate([lo, hi, size[:, None]], axis=1))
 
 
 @_jit
@@ -198,7 +201,7 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
     leaves_m, leaves_c = 2 ** depth_m - 1, 2 ** depth_c - 1
     nodes_c = len(table)
     moved = np.empty((len(points), 3))
-    lo, hi = np.empty((nodes_c, 3)), np.empty((nodes_c, 3))
+    lo, hi, size = np.empty((nodes_c, 3)), np.empty((nodes_c, 3)), np.empty(nodes_c)
     stack_m = np.empty(4 * (depth_m + depth_c + 2), np.int64)
     stack_c = np.empty(len(stack_m), np.int64)
     stack_gap = np.empty(len(stack_m))
@@ -212,6 +215,7 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                 x, y = moved[index[c, 0], r], moved[index[c, 1], r]
                 lo[c, r] = min(x, y) - outer
                 hi[c, r] = max(x, y) + outer
+            size[c] = hi[c, 0] - lo[c, 0] + hi[c, 1] - lo[c, 1] + hi[c, 2] - lo[c, 2]
         best = np.inf
         unit[p] = -1
         stack_m[0], stack_c[0], stack_gap[0] = 0, 0, _box_gap(boxes, 0, lo[0], hi[0])
@@ -237,10 +241,7 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                     break
                 continue
             # split the chain node when the mesh node is a leaf or the smaller box
-            size_c = hi[nc, 0] - lo[nc, 0] + hi[nc, 1] - lo[nc, 1] + hi[nc, 2] - lo[nc, 2]
-            size_m = boxes[nm, 3] - boxes[nm, 0] + boxes[nm, 4] - boxes[nm, 1] \
-                + boxes[nm, 5] - boxes[nm, 2]
-            split_c = not leaf_c and (leaf_m or size_c >= size_m)
+            split_c = not leaf_c and (leaf_m or size[nc] >= boxes[nm, 6])
             if split_c:
                 m0, m1, c0, c1 = nm, nm, 2 * nc + 1, 2 * nc + 2
             else:

@@ -107,6 +107,10 @@ class CapsuleTree:
         self.p0[full], self.p1[full] = edges[lo, 0], edges[hi - 1, 1]
         self.p0[full[longer]] = n + np.arange(len(longer))
         self.p1[full[longer]] = n + len(longer) + np.arange(len(longer))
+        # each point once (a pipe's units share their end balls): a walk moves every
+        # point per pose
+        self.points, once = np.unique(self.points, axis=0, return_inverse=True)
+        self.p0, self.p1 = once.reshape(-1)[self.p0], once.reshape(-1)[self.p1]
         leaves = np.arange(2 ** self.depth - 1, size)
         self.unit = np.where(last[leaves] > first[leaves], first[leaves], -1)
         self.start = self.points[self.p0]

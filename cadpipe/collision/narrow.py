@@ -366,7 +366,7 @@ def packed_arrays(bodies, near_chain):
     tree_table, tree_at = joined([t and t.table for t in trees], 10)
     tree_index, _ = joined([t and t.index for t in trees], 3, np.int64)
     tree_points, tree_points_at = joined([t and t.points for t in trees], 3)
-    mesh_boxes, boxes_at = joined([m and m.boxes for m in meshes], 6)
+    mesh_boxes, boxes_at = joined([m and m.boxes for m in meshes], 7)
     mesh_triangles, triangles_at = joined([m and m.triangles for m in meshes], 9)
     probes, probes_at = joined(probes, 3)
     return {"tree_table": tree_table, "tree_index": tree_index, "tree_points": tree_points,
