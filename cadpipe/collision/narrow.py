@@ -228,13 +228,13 @@ def _could_be_inside(rel, probes, extremes, lo, hi, low, high, slack, out):
         for k in range(len(extremes)):
             if not fits:
                 break
-            x = np.empty(3)
-            for r in range(3):
-                x[r] = m[r, 0] * extremes[k, 0] + m[r, 1] * extremes[k, 1] \
-                    + m[r, 2] * extremes[k, 2] + m[r, 3]
+            e0, e1, e2 = extremes[k, 0], extremes[k, 1], extremes[k, 2]
+            x0 = m[0, 0] * e0 + m[0, 1] * e1 + m[0, 2] * e2 + m[0, 3]
+            x1 = m[1, 0] * e0 + m[1, 1] * e1 + m[1, 2] * e2 + m[1, 3]
+            x2 = m[2, 0] * e0 + m[2, 1] * e1 + m[2, 2] * e2 + m[2, 3]
             for d in range(9):
-                v = KDOP_DIRECTIONS[d, 0] * x[0] + KDOP_DIRECTIONS[d, 1] * x[1] \
-                    + KDOP_DIRECTIONS[d, 2] * x[2]
+                v = KDOP_DIRECTIONS[d, 0] * x0 + KDOP_DIRECTIONS[d, 1] * x1 \
+                    + KDOP_DIRECTIONS[d, 2] * x2
                 fits = fits and low[d] - slack <= v <= high[d] + slack
         out[e] = fits
 
