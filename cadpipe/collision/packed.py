@@ -16,7 +16,9 @@ The record holds the arrays themselves, not copies: the scene's poses and
 pose versions, the checker's placed bounds and stored answers are the same
 memory the Python side reads, so a record stays valid for as long as the
 layout it was made for (:class:`cadpipe.collision.world.Checker` makes a new
-one when the layout changes).
+one when the layout changes). It also holds the last call's scratch (the pairs
+left to Python, the hits), so one world takes one check at a time, as its
+stored answers already required.
 """
 
 import numba

@@ -518,7 +518,7 @@ class Checker:
     def __init__(self, scene):
         self.scene = scene
         self._layout_key, self._layout = None, None
-        self._records = {}                 # certify -> (_Answers, packed record)
+        self._records = {}                 # certify -> what _record() returns
 
     @property
     def layout(self):
