@@ -119,6 +119,34 @@ def test_check_many_moves_any_objects_and_equals_the_loop():
     assert ("block", "ball", "containment") in hits
 
 
+def test_one_pose_of_one_pair_equals_the_batched_narrow_phase():
+    # collide_at settles chain pairs in the compiled walks of the per-state kernel and
+    # leaves the rest (meshes, a ball perhaps inside the block, tapered units) to the
+    # batched narrow phase; either way the verdict is the batch's
+    from cadpipe.collision import narrow
+
+    world = cell()
+    rng = np.random.default_rng(12)
+    pairs = [("duct", "hose"), ("hose", "duct"), ("ball", "block"), ("block", "ball"),
+             ("ring", "duct"), ("ball", "ring"), ("block", "ring"), ("l0", "l1"),
+             ("duct", "l2"), ("hose", "ball")]
+    seen = set()
+    for a, b in pairs:
+        count = 150
+        poses = np.tile(np.eye(4), (count, 2, 1, 1))
+        poses[:, 1, :3, :3] = Rotation.random(count, random_state=rng).as_matrix()
+        poses[:, :, :3, 3] = world.pose(a)[:3, 3] + rng.uniform(-0.4, 0.4, (count, 2, 3))
+        touching, contained = narrow.collide(world.body(a), poses[:, 0], world.body(b),
+                                             poses[:, 1])
+        single = [world.collide_at(a, b, m_a, m_b) for m_a, m_b in poses]
+        np.testing.assert_array_equal(single, touching)
+        seen |= {(a, b, kind) for kind, found in (("hit", touching & ~contained),
+                                                  ("inside", contained), ("apart", ~touching))
+                 if found.any()}
+    assert {("ball", "block", "inside"), ("duct", "hose", "hit"), ("ring", "duct", "apart"),
+            ("block", "ring", "hit")} <= seen
+
+
 def test_check_path_leaves_the_robot_where_it_was():
     world = cell()
     world.set_joints("arm", [0.3, 0.2, -0.4, 0.1])
@@ -198,6 +226,58 @@ def random_poses(rng, count, spread):
     m[:, :3, :3] = Rotation.random(count, random_state=rng).as_matrix()
     m[:, :3, 3] = rng.uniform(-spread, spread, (count, 3))
     return m
+
+
+def meshes(rng):
+    """A torus, a long strip (centroids in sorted order), a stack of one triangle
+    repeated (every centroid equal), one triangle, and a random soup."""
+    torus = trimesh.creation.torus(0.3, 0.1, major_sections=20, minor_sections=8)
+    x = np.repeat(np.linspace(0.0, 2.0, 60), 2)
+    strip = np.c_[x, np.tile([0.0, 0.1], 60), 0.01 * x ** 2]
+    strip_faces = np.array([[k, k + 1, k + 2] for k in range(len(strip) - 2)])
+    one = np.array([[0.0, 0.0, 0.0], [0.3, 0.0, 0.0], [0.0, 0.3, 0.1]])
+    soup = rng.uniform(-0.5, 0.5, (90, 3))
+    return [(torus.vertices, torus.faces), (strip, strip_faces),
+            (one, np.zeros((40, 3), np.int64) + [0, 1, 2]), (one, np.array([[0, 1, 2]])),
+            (soup, np.arange(90).reshape(30, 3))]
+
+
+def test_triangle_trees_hold_every_triangle_and_lose_no_minimum():
+    from cadpipe.collision.chain_mesh import TriangleTree, segment_triangle, walk as mesh_walk
+
+    rng = np.random.default_rng(5)
+    chain = Chain.along(walk(rng, 14, 0.1), 0.04)
+    tree = chain.tree
+    for vertices, faces in meshes(rng):
+        found = TriangleTree(vertices, faces)
+        corners = np.asarray(vertices, float)[faces].reshape(-1, 9)
+        held = found.order[found.order >= 0]
+        np.testing.assert_array_equal(np.sort(held), np.arange(len(faces)))
+        # every node's box holds the triangles of its leaves
+        leaves = 2 ** found.depth
+        for node in range(2 * leaves - 1):
+            level = int(np.log2(node + 1))
+            width = leaves >> level
+            first = (node - (2 ** level - 1)) * width
+            inside = found.order[first:first + width]
+            points = corners[inside[inside >= 0]].reshape(-1, 3)
+            if len(points):
+                assert np.all(points >= found.boxes[node, :3]) and \
+                    np.all(points <= found.boxes[node, 3:6])
+        poses = random_poses(rng, 40, 0.6)
+        gap, unit = np.empty(len(poses)), np.empty(len(poses), np.int64)
+        near, far = np.empty((len(poses), 3)), np.empty((len(poses), 3))
+        mesh_walk(found.boxes, found.triangles, found.depth, tree.table, tree.index,
+                  tree.points, tree.depth, poses, False, gap, unit, near, far)
+        for p, m in enumerate(poses):
+            moved = chain.moved(m)
+            expected = min(segment_triangle(moved.starts[u], moved.ends[u], t, np.empty(3),
+                                            np.empty(3)) - moved.start_radii[u]
+                           for u in range(len(moved.edges)) for t in corners)
+            if expected > 1e-12:              # a penetration's value is only its sign
+                assert gap[p] == pytest.approx(expected, abs=1e-12)
+            else:
+                assert gap[p] <= 1e-12
 
 
 @pytest.mark.parametrize("seed", [1, 2])

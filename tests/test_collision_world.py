@@ -184,6 +184,10 @@ def test_bad_transforms_are_refused(transform, match):
     world.add("b", cube())
     with pytest.raises(InputError, match=match):
         world.set_pose("b", transform)
+    world.add("c", cube())
+    with pytest.raises(InputError, match=match):
+        world.collide_at("c", "b", np.eye(4), transform)
+    np.testing.assert_array_equal(world.pose("b"), np.eye(4))      # a refused pose moves nothing
 
 
 def test_unknown_names_and_bad_objects_are_refused():

@@ -104,7 +104,11 @@ class Body:
         :func:`~cadpipe.collision.bounds.kdop_polytope` around them."""
         points, pad = self.hull
         if self.kind == "chain":
-            return points, pad
+            # each ball once (a pipe's units share their end balls): the same slabs, from
+            # half the points
+            _, first = np.unique(np.c_[points, pad], axis=0, return_index=True)
+            first.sort()
+            return points[first], pad[first]
         polytope = bounds.kdop_polytope(points, self.obb)
         return (polytope, np.zeros(len(polytope))) if len(polytope) < len(points) \
             else (points, pad)

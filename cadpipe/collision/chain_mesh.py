@@ -37,24 +37,19 @@ class TriangleTree:
     vertices : (V, 3) float
     faces : (F, 3) int
 
-    A perfect binary tree in heap order over the triangles sorted along a Morton
-    curve: ``boxes`` (nodes, 6) holds each node's ``lo``, ``hi``; leaf ``k`` (at
-    depth ``depth``) holds triangle ``order[k]`` or none (-1); ``triangles``
-    (leaves, 9) the leaves' corners, row by row.
+    A perfect binary tree in heap order: leaf ``k`` (at depth ``depth``) holds
+    triangle ``order[k]`` or none (-1), the triangles in the first leaves, and
+    each node's triangles are split between its children along the longest
+    extent of their centroids (:func:`_median_order`). ``boxes`` (nodes, 7)
+    holds each node's ``lo``, ``hi`` and size (the sum of its extents);
+    ``triangles`` (leaves, 9) the leaves' corners, row by row.
     """
 
     def __init__(self, vertices, faces):
         corners = np.asarray(vertices, np.float64)[np.asarray(faces)]        # (F, 3, 3)
         count = len(corners)
-        centroid = corners.mean(axis=1)
-        lo, hi = centroid.min(axis=0), centroid.max(axis=0)
-        cell = np.floor((centroid - lo) / np.maximum(hi - lo, 1e-300) * 1023.0).astype(np.int64)
-        code = np.zeros(count, np.int64)
-        for bit in range(10):                   # interleave the 10 bits of each axis
-            for axis in range(3):
-                code |= ((cell[:, axis] >> bit) & 1) << (3 * bit + axis)
-        order = np.argsort(code, kind="stable")
         self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
+        order = _median_order(np.ascontiguousarray(corners.mean(axis=1)), self.depth)
         leaves = 2 ** self.depth
         self.order = np.full(leaves, -1, np.int64)
         self.order[:count] = order
@@ -63,29 +58,110 @@ class TriangleTree:
         low, high = np.full((leaves, 3), np.inf), np.full((leaves, 3), -np.inf)
         low[:count], high[:count] = corners[order].min(axis=1), corners[order].max(axis=1)
         lo, hi = box_levels(low, high)
-        self.boxes = np.ascontiguousarray(np.concatenate([lo, hi], axis=1))
+        # per node lo, hi and its size (the sum of its extents, for the walk's split rule)
+        size = hi[:, 0] - lo[:, 0] + hi[:, 1] - lo[:, 1] + hi[:, 2] - lo[:, 2]
+        self.boxes = np.ascontiguousarray(np.concatenate([lo, hi, size[:, None]], axis=1))
 
 
 @_jit
-def _closest_on_triangle(p, t):
-    """The point of triangle ``t`` (9,) nearest to ``p``, as three coordinates
-    (:func:`cadpipe.collision.convex.nearest_on_triangle`, about ``p``)."""
-    x, y, z, _ = nearest_on_triangle(t[0] - p[0], t[1] - p[1], t[2] - p[2], t[3] - p[0],
-                                     t[4] - p[1], t[5] - p[2], t[6] - p[0], t[7] - p[1],
-                                     t[8] - p[2])
-    return x + p[0], y + p[1], z + p[2]
+def _median_order(centroid, depth):
+    """The leaf order of triangles with centroids ``centroid`` (F, 3) in a perfect
+    tree of ``depth``: level by level, each node's triangles are split at its
+    second child's first leaf along the longest extent of their centroids. On a
+    pipe against a 1,536-triangle torus a walk tests about 30% fewer node pairs
+    than over a Morton order of the centroids (whose boxes straddle the curve's
+    jumps). A quickselect per node: O(F) per level."""
+    count = len(centroid)
+    order = np.arange(count)
+    keys = np.empty(count)
+    for d in range(depth):
+        slots = 1 << (depth - d)
+        for a in range(0, count, slots):
+            b, m = min(a + slots, count), a + slots // 2
+            if m >= b:
+                continue
+            lo, hi = centroid[order[a]].copy(), centroid[order[a]].copy()
+            for k in range(a + 1, b):
+                for r in range(3):
+                    lo[r] = min(lo[r], centroid[order[k], r])
+                    hi[r] = max(hi[r], centroid[order[k], r])
+            axis = np.argmax(hi - lo)
+            for k in range(a, b):
+                keys[k] = centroid[order[k], axis]
+            _split_at(keys, order, a, b - 1, m)
+    return order
 
 
 @_jit
-def _segments_closest(p, u, q, v):
+def _split_at(keys, order, low, high, k):
+    """Reorder ``keys[low:high + 1]`` and ``order`` alike so that no key before ``k``
+    is larger than one from ``k`` on: quickselect (median of three), or a sort
+    once it has taken more rounds than a balanced one would (a bounded worst
+    case for any input)."""
+    rounds, limit = 0, 2 * int(np.log2(high - low + 1)) + 4
+    while low < high:
+        if rounds > limit:
+            part = np.argsort(keys[low:high + 1], kind="mergesort") + low
+            keys[low:high + 1], order[low:high + 1] = keys[part], order[part]
+            return
+        rounds += 1
+        i = _partition(keys, order, low, high)
+        if i == k:
+            return
+        if i < k:
+            low = i + 1
+        else:
+            high = i - 1
+
+
+@_jit
+def _partition(keys, order, low, high):
+    """Hoare's partition of ``keys[low:high + 1]`` (and ``order`` alike) about the
+    median of its first, middle and last key; returns the pivot's place."""
+    mid = (low + high) >> 1
+    for x, y in ((mid, low), (high, mid), (mid, low)):
+        if keys[x] < keys[y]:
+            keys[x], keys[y] = keys[y], keys[x]
+            order[x], order[y] = order[y], order[x]
+    pivot = keys[mid]
+    keys[high], keys[mid] = keys[mid], keys[high]
+    order[high], order[mid] = order[mid], order[high]
+    i, j = low, high - 1
+    while True:
+        while i < high and keys[i] < pivot:
+            i += 1
+        while j >= low and pivot < keys[j]:
+            j -= 1
+        if i >= j:
+            break
+        keys[i], keys[j] = keys[j], keys[i]
+        order[i], order[j] = order[j], order[i]
+        i += 1
+        j -= 1
+    keys[i], keys[high] = keys[high], keys[i]
+    order[i], order[high] = order[high], order[i]
+    return i
+
+
+@_jit
+def _closest_on_triangle(px, py, pz, t):
+    """The point of triangle ``t`` (9,) nearest to ``(px, py, pz)``, as three
+    coordinates (:func:`cadpipe.collision.convex.nearest_on_triangle`, about the point)."""
+    x, y, z, _ = nearest_on_triangle(t[0] - px, t[1] - py, t[2] - pz, t[3] - px, t[4] - py,
+                                     t[5] - pz, t[6] - px, t[7] - py, t[8] - pz)
+    return x + px, y + py, z + pz
+
+
+@_jit
+def _segments_closest(px, py, pz, ux, uy, uz, qx, qy, qz, vx, vy, vz):
     """Parameters ``(s, t)`` of the closest points of ``p + s u`` and ``q + t v``
     (as :func:`cadpipe.collision.capsules.segment_params`)."""
-    rx, ry, rz = p[0] - q[0], p[1] - q[1], p[2] - q[2]
-    uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
-    vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    ur = u[0] * rx + u[1] * ry + u[2] * rz
-    vr = v[0] * rx + v[1] * ry + v[2] * rz
+    rx, ry, rz = px - qx, py - qy, pz - qz
+    uu = ux * ux + uy * uy + uz * uz
+    vv = vx * vx + vy * vy + vz * vz
+    uv = ux * vx + uy * vy + uz * vz
+    ur = ux * rx + uy * ry + uz * rz
+    vr = vx * rx + vy * ry + vz * rz
     tiny = np.finfo(np.float64).tiny
     inv_uu = 1.0 / uu if uu > tiny else 0.0
     inv_vv = 1.0 / vv if vv > tiny else 0.0
@@ -103,38 +179,42 @@ def _segments_closest(p, u, q, v):
 def segment_triangle(a, b, t, near, far):
     """Distance from segment ``a``-``b`` (3,) to triangle ``t`` (9,), with the
     closest points written to ``near`` (on the segment) and ``far`` (on the
-    triangle). 0 where the segment pierces the triangle."""
-    u = b - a
+    triangle). 0 where the segment pierces the triangle. In scalars: a walk
+    calls it at every leaf, where a small array each step cost more than the
+    arithmetic."""
+    ax, ay, az = a[0], a[1], a[2]
+    ux, uy, uz = b[0] - ax, b[1] - ay, b[2] - az
     # pierced: the segment crosses the triangle's plane inside the triangle
-    e1 = np.array([t[3] - t[0], t[4] - t[1], t[5] - t[2]])
-    e2 = np.array([t[6] - t[0], t[7] - t[1], t[8] - t[2]])
-    n = np.cross(e1, e2)
-    da = n[0] * (a[0] - t[0]) + n[1] * (a[1] - t[1]) + n[2] * (a[2] - t[2])
-    db = n[0] * (b[0] - t[0]) + n[1] * (b[1] - t[1]) + n[2] * (b[2] - t[2])
+    e1x, e1y, e1z = t[3] - t[0], t[4] - t[1], t[5] - t[2]
+    e2x, e2y, e2z = t[6] - t[0], t[7] - t[1], t[8] - t[2]
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    da = nx * (ax - t[0]) + ny * (ay - t[1]) + nz * (az - t[2])
+    db = nx * (b[0] - t[0]) + ny * (b[1] - t[1]) + nz * (b[2] - t[2])
     if (da <= 0 <= db or db <= 0 <= da) and da != db:
-        x = a + (da / (da - db)) * u
-        cx, cy, cz = _closest_on_triangle(x, t)
-        if (cx - x[0]) ** 2 + (cy - x[1]) ** 2 + (cz - x[2]) ** 2 <= 1e-30 * (
-                1.0 + x[0] * x[0] + x[1] * x[1] + x[2] * x[2]):
-            near[:] = x
+        f = da / (da - db)
+        xx, xy, xz = ax + f * ux, ay + f * uy, az + f * uz
+        cx, cy, cz = _closest_on_triangle(xx, xy, xz, t)
+        if (cx - xx) ** 2 + (cy - xy) ** 2 + (cz - xz) ** 2 <= 1e-30 * (
+                1.0 + xx * xx + xy * xy + xz * xz):
+            near[0], near[1], near[2] = xx, xy, xz
             far[0], far[1], far[2] = cx, cy, cz
             return 0.0
     best = np.inf
     for k in range(2):                           # the segment's ends against the triangle
         p = a if k == 0 else b
-        cx, cy, cz = _closest_on_triangle(p, t)
+        cx, cy, cz = _closest_on_triangle(p[0], p[1], p[2], t)
         d = np.sqrt((cx - p[0]) ** 2 + (cy - p[1]) ** 2 + (cz - p[2]) ** 2)
         if d < best:
             best = d
-            near[:] = p
+            near[0], near[1], near[2] = p[0], p[1], p[2]
             far[0], far[1], far[2] = cx, cy, cz
     for k in range(3):                           # the segment against each edge
-        q = t[3 * k:3 * k + 3]
-        r = t[3 * ((k + 1) % 3):3 * ((k + 1) % 3) + 3]
-        v = r - q
-        s, w = _segments_closest(a, u, q, v)
-        px, py, pz = a[0] + s * u[0], a[1] + s * u[1], a[2] + s * u[2]
-        qx, qy, qz = q[0] + w * v[0], q[1] + w * v[1], q[2] + w * v[2]
+        q, r = 3 * k, 3 * ((k + 1) % 3)
+        qx, qy, qz = t[q], t[q + 1], t[q + 2]
+        vx, vy, vz = t[r] - qx, t[r + 1] - qy, t[r + 2] - qz
+        s, w = _segments_closest(ax, ay, az, ux, uy, uz, qx, qy, qz, vx, vy, vz)
+        px, py, pz = ax + s * ux, ay + s * uy, az + s * uz
+        qx, qy, qz = qx + w * vx, qy + w * vy, qz + w * vz
         d = np.sqrt((px - qx) ** 2 + (py - qy) ** 2 + (pz - qz) ** 2)
         if d < best:
             best = d
@@ -144,13 +224,13 @@ def segment_triangle(a, b, t, near, far):
 
 
 @_jit
-def _box_gap(boxes, m, lo, hi):
-    """Distance between mesh node ``m``'s box and the box ``lo``, ``hi``."""
+def _box_gap_sq(boxes, m, lo, hi):
+    """Squared distance between mesh node ``m``'s box and the box ``lo``, ``hi``."""
     total = 0.0
     for r in range(3):
         out = max(boxes[m, r] - hi[r], lo[r] - boxes[m, 3 + r], 0.0)
         total += out * out
-    return np.sqrt(total)
+    return total
 
 
 @_jit
@@ -166,11 +246,10 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
     leaves_m, leaves_c = 2 ** depth_m - 1, 2 ** depth_c - 1
     nodes_c = len(table)
     moved = np.empty((len(points), 3))
-    lo, hi = np.empty((nodes_c, 3)), np.empty((nodes_c, 3))
+    lo, hi, size = np.empty((nodes_c, 3)), np.empty((nodes_c, 3)), np.empty(nodes_c)
     stack_m = np.empty(4 * (depth_m + depth_c + 2), np.int64)
     stack_c = np.empty(len(stack_m), np.int64)
     stack_gap = np.empty(len(stack_m))
-    ends = np.empty((2, 3))
     on_axis, on_triangle = np.empty(3), np.empty(3)
     for p in range(len(poses)):
         m = poses[p]
@@ -181,9 +260,10 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                 x, y = moved[index[c, 0], r], moved[index[c, 1], r]
                 lo[c, r] = min(x, y) - outer
                 hi[c, r] = max(x, y) + outer
+            size[c] = hi[c, 0] - lo[c, 0] + hi[c, 1] - lo[c, 1] + hi[c, 2] - lo[c, 2]
         best = np.inf
         unit[p] = -1
-        stack_m[0], stack_c[0], stack_gap[0] = 0, 0, _box_gap(boxes, 0, lo[0], hi[0])
+        stack_m[0], stack_c[0], stack_gap[0] = 0, 0, np.sqrt(_box_gap_sq(boxes, 0, lo[0], hi[0]))
         top = 1
         while top:
             top -= 1
@@ -195,9 +275,8 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                 if index[nc, 2] < 0:
                     continue
                 tri = nm - leaves_m
-                ends[0], ends[1] = moved[index[nc, 0]], moved[index[nc, 1]]
-                d = segment_triangle(ends[0], ends[1], triangles[tri], on_axis, on_triangle) \
-                    - table[nc, 9]
+                d = segment_triangle(moved[index[nc, 0]], moved[index[nc, 1]], triangles[tri],
+                                     on_axis, on_triangle) - table[nc, 9]
                 if d < best:
                     best = d
                     unit[p] = index[nc, 2]
@@ -207,15 +286,24 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                     break
                 continue
             # split the chain node when the mesh node is a leaf or the smaller box
-            size_c = hi[nc, 0] - lo[nc, 0] + hi[nc, 1] - lo[nc, 1] + hi[nc, 2] - lo[nc, 2]
-            size_m = boxes[nm, 3] - boxes[nm, 0] + boxes[nm, 4] - boxes[nm, 1] \
-                + boxes[nm, 5] - boxes[nm, 2]
-            split_c = not leaf_c and (leaf_m or size_c >= size_m)
+            split_c = not leaf_c and (leaf_m or size[nc] >= boxes[nm, 6])
             if split_c:
                 m0, m1, c0, c1 = nm, nm, 2 * nc + 1, 2 * nc + 2
             else:
                 m0, m1, c0, c1 = 2 * nm + 1, 2 * nm + 2, nc, nc
-            g0, g1 = _box_gap(boxes, m0, lo[c0], hi[c0]), _box_gap(boxes, m1, lo[c1], hi[c1])
+            g0 = _box_gap_sq(boxes, m0, lo[c0], hi[c0])
+            g1 = _box_gap_sq(boxes, m1, lo[c1], hi[c1])
+            if yes_no:
+                # only touching boxes can lead to a contact: the others would be dropped
+                # when taken, so they are not stacked (the same visits, fewer steps)
+                if g1 == 0.0:
+                    stack_m[top], stack_c[top], stack_gap[top] = m1, c1, 0.0
+                    top += 1
+                if g0 == 0.0:
+                    stack_m[top], stack_c[top], stack_gap[top] = m0, c0, 0.0
+                    top += 1
+                continue
+            g0, g1 = np.sqrt(g0), np.sqrt(g1)
             if g1 < g0:
                 m0, m1, c0, c1, g0, g1 = m1, m0, c1, c0, g1, g0
             stack_m[top], stack_c[top], stack_gap[top] = m1, c1, g1

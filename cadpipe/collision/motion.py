@@ -286,11 +286,10 @@ class _Setup:
 
 
 def _kinematics(robot):
-    """The arguments of :func:`~cadpipe.collision.kinematics.chain_poses` before the
-    base, for every frame."""
+    """The robot's joint terms, kinds and links for
+    :func:`~cadpipe.collision.kinematics.chain_poses`, and every frame's index."""
     k = robot._kinematics
-    return (k["origin"], k["turn"], k["turn2"], k["slide"], k["revolute"], k["prismatic"],
-            k["parent"], k["child"], k["frame_index"])
+    return k["terms"], k["kinds"], k["joint_links"], k["frame_index"]
 
 
 _CHAINS = weakref.WeakKeyDictionary()
@@ -478,12 +477,10 @@ def _closing(speed, now, growth, clearance):
 @_jit
 def _frames_at(kinematics, v_a, v_b, t, values):
     """Every frame's pose (F, 4, 4) at time ``t`` of the segment."""
-    origin, turn, turn2, slide, revolute, prismatic, parent, child, frame_index, base = \
-        kinematics
+    terms, kinds, links, frame_index, base = kinematics
     for j in range(len(v_a)):
         values[0, j] = v_a[j] + t * (v_b[j] - v_a[j])
-    return chain_poses(values, origin, turn, turn2, slide, revolute, prismatic, parent, child,
-                       base, frame_index)[0]
+    return chain_poses(values, terms, kinds, links, base, frame_index)[0]
 
 
 @_jit

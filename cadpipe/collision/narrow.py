@@ -22,10 +22,16 @@ import numpy as np
 from cadpipe.geometry.mesh import winding_numbers
 from cadpipe.collision import chain_mesh
 from cadpipe.collision.bounds import KDOP_DIRECTIONS
-from cadpipe.collision.hierarchy import chain_gaps
+from cadpipe.collision.hierarchy import chain_gaps, walk_trees
 
 #: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
 INSIDE = 0.5
+#: stage codes of the exact phase (indices into ``world.STAGES``)
+FCL, CONTAINMENT, ANALYTIC = 6, 7, 8
+#: what :func:`settle` returns for a pair it leaves to the Python narrow phase
+UNSETTLED = -1
+#: room for tapered unit pairs in :func:`settle`'s chain walk (more: left to Python)
+_LEFT = 64
 
 # One pose of one pair costs a few of these compiled loops instead of ~40 numpy calls
 # on (1, 4, 4) arrays (per-state figures in docs/performance.md).
@@ -36,15 +42,17 @@ def relative(pose_a, pose_b):
     """Poses of b in a's frame, ``inv(pose_a) @ pose_b``, vectorized over leading axes
     (rigid poses: the inverse is the transposed rotation)."""
     pose_a, pose_b = np.asarray(pose_a, np.float64), np.asarray(pose_b, np.float64)
-    if pose_a.shape != pose_b.shape:
-        pose_a, pose_b = (np.ascontiguousarray(p) for p in np.broadcast_arrays(pose_a, pose_b))
+    if pose_a.shape != pose_b.shape:          # own copies: numba warns on broadcast views
+        shape = np.broadcast_shapes(pose_a.shape, pose_b.shape)
+        pose_a, pose_b = (np.broadcast_to(p, shape).copy() for p in (pose_a, pose_b))
     out = np.empty(pose_a.shape)
-    _relative(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
+    relative_into(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
     return out
 
 
 @_jit
-def _relative(pose_a, pose_b, out):
+def relative_into(pose_a, pose_b, out):
+    """:func:`relative` of (E, 4, 4) poses into ``out`` (E, 4, 4), compiled."""
     for e in range(len(pose_a)):
         a, b, o = pose_a[e], pose_b[e], out[e]
         for r in range(3):
@@ -220,13 +228,13 @@ def _could_be_inside(rel, probes, extremes, lo, hi, low, high, slack, out):
         for k in range(len(extremes)):
             if not fits:
                 break
-            x = np.empty(3)
-            for r in range(3):
-                x[r] = m[r, 0] * extremes[k, 0] + m[r, 1] * extremes[k, 1] \
-                    + m[r, 2] * extremes[k, 2] + m[r, 3]
+            e0, e1, e2 = extremes[k, 0], extremes[k, 1], extremes[k, 2]
+            x0 = m[0, 0] * e0 + m[0, 1] * e1 + m[0, 2] * e2 + m[0, 3]
+            x1 = m[1, 0] * e0 + m[1, 1] * e1 + m[1, 2] * e2 + m[1, 3]
+            x2 = m[2, 0] * e0 + m[2, 1] * e1 + m[2, 2] * e2 + m[2, 3]
             for d in range(9):
-                v = KDOP_DIRECTIONS[d, 0] * x[0] + KDOP_DIRECTIONS[d, 1] * x[1] \
-                    + KDOP_DIRECTIONS[d, 2] * x[2]
+                v = KDOP_DIRECTIONS[d, 0] * x0 + KDOP_DIRECTIONS[d, 1] * x1 \
+                    + KDOP_DIRECTIONS[d, 2] * x2
                 fits = fits and low[d] - slack <= v <= high[d] + slack
         out[e] = fits
 
@@ -240,15 +248,27 @@ def _yes_no():
 
 
 def _mesh_mesh(body_a, body_b, rel):
+    return np.array([_fcl_touch(body_a, body_b, pose) for pose in rel], bool)
+
+
+def _fcl_touch(body_a, body_b, rel):
+    """Whether FCL finds the meshes' triangles touching, b at ``rel`` (4, 4) in a's
+    frame."""
     import fcl
 
-    request = _yes_no()
-    anchor, mover = body_a.fcl_anchor, body_b.fcl_mover
-    touching = np.zeros(len(rel), bool)
-    for e, pose in enumerate(rel):
-        mover.setTransform(_transform(pose))
-        touching[e] = fcl.collide(anchor, mover, request, fcl.CollisionResult()) > 0
-    return touching
+    mover = body_b.fcl_mover
+    mover.setTransform(_transform(rel))
+    return fcl.collide(body_a.fcl_anchor, mover, _yes_no(), fcl.CollisionResult()) > 0
+
+
+def mesh_pair(body_a, body_b, rel):
+    """:func:`collide` of two meshes at one relative pose ``rel`` (4, 4), b's pose in
+    a's frame: ``(touching, contained)``, two bools. What a single state asks of the
+    pairs its funnel kernel leaves, without the batch's array handling."""
+    if _fcl_touch(body_a, body_b, rel):
+        return True, False
+    contained = bool(_contained(body_a, body_b, rel[None])[0])
+    return contained, contained
 
 
 def _mesh_chain(mesh_body, chain_body, rel, yes_no):
@@ -263,6 +283,100 @@ def _mesh_chain(mesh_body, chain_body, rel, yes_no):
                     chain.points, chain.depth, np.ascontiguousarray(rel), yes_no, gap, unit,
                     near, far)
     return gap, unit, near, far
+
+
+# -- yes / no, one pose, compiled ------------------------------------------------------
+@_jit
+def settle(w, i, pose_i, j, pose_j, rel):
+    """:func:`collide` of objects ``i`` and ``j`` of the packed world ``w``
+    (:class:`~cadpipe.collision.packed.Packed`) at poses ``pose_i``, ``pose_j``
+    (1, 4, 4), compiled: ``(code, touching)``, the code :data:`ANALYTIC` (two
+    chains), :data:`FCL` (a chain and a mesh) or :data:`UNSETTLED` for what is
+    left to :func:`collide`: two meshes (FCL), a chain that may lie inside a
+    mesh (the probe test), tapered unit pairs the walk does not settle (the
+    exact round-cone gap), a mesh whose triangle tree is not packed. ``rel``
+    (1, 4, 4) is scratch. The same walks on the same relative pose as
+    :func:`collide`, so the same answers.
+    """
+    if w.chain[i] and w.chain[j]:
+        relative_into(pose_i, pose_j, rel)
+        gap, units, params = np.empty(1), np.empty((1, 2), np.int64), np.empty((1, 2))
+        left = np.empty((_LEFT, 3), np.int64)
+        count = walk_trees(w.tree_table[w.tree_at[i]:w.tree_at[i + 1]],
+                           w.tree_index[w.tree_at[i]:w.tree_at[i + 1]], w.tree_depth[i],
+                           w.tree_points[w.tree_points_at[j]:w.tree_points_at[j + 1]],
+                           w.tree_table[w.tree_at[j]:w.tree_at[j + 1]],
+                           w.tree_index[w.tree_at[j]:w.tree_at[j + 1]], w.tree_depth[j], rel,
+                           0.0, True, gap, units, params, left)
+        if count < 0 or (count > 0 and gap[0] > 0.0):   # the round cones decide: Python
+            return UNSETTLED, False
+        return ANALYTIC, gap[0] <= 0.0
+    if not (w.chain[i] or w.chain[j]):
+        return UNSETTLED, False
+    mesh, other = (j, i) if w.chain[i] else (i, j)
+    if w.boxes_at[mesh] == w.boxes_at[mesh + 1]:         # no triangle tree packed
+        return UNSETTLED, False
+    if w.chain[i]:
+        relative_into(pose_j, pose_i, rel)
+    else:
+        relative_into(pose_i, pose_j, rel)
+    gap, unit, near, far = np.empty(1), np.empty(1, np.int64), np.empty((1, 3)), \
+        np.empty((1, 3))
+    chain_mesh.walk(w.mesh_boxes[w.boxes_at[mesh]:w.boxes_at[mesh + 1]],
+                    w.mesh_triangles[w.triangles_at[mesh]:w.triangles_at[mesh + 1]],
+                    w.mesh_depth[mesh], w.tree_table[w.tree_at[other]:w.tree_at[other + 1]],
+                    w.tree_index[w.tree_at[other]:w.tree_at[other + 1]],
+                    w.tree_points[w.tree_points_at[other]:w.tree_points_at[other + 1]],
+                    w.tree_depth[other], rel, True, gap, unit, near, far)
+    if gap[0] <= 0.0:
+        return FCL, True
+    if not w.closed[mesh]:
+        return FCL, False
+    inside = np.empty(1, np.bool_)
+    _could_be_inside(rel, w.probes[w.probes_at[other]:w.probes_at[other + 1]],
+                     w.extremes[other], w.inside_lo[mesh], w.inside_hi[mesh],
+                     w.inside_low[mesh], w.inside_high[mesh], w.inside_slack[mesh], inside)
+    return (UNSETTLED, False) if inside[0] else (FCL, False)
+
+
+def packed_arrays(bodies, near_chain):
+    """The arrays of :func:`settle` for every body (fields of
+    :data:`cadpipe.collision.packed.FIELDS`), concatenated: each chain's capsule
+    tree, probes and extremes; each closed mesh marked in ``near_chain`` (N,)
+    (paired with a chain) its triangle tree and containment prefilter."""
+    n = len(bodies)
+    trees = [b.chain.tree if b.kind == "chain" else None for b in bodies]
+    meshes = [b.triangle_tree if b.kind == "mesh" and near else None
+              for b, near in zip(bodies, near_chain)]
+    empty = np.zeros((0, 3))
+    probes = [b.probes if b.kind == "chain" else empty for b in bodies]
+    extremes, lo, hi = np.zeros((n, 18, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+    low, high, slack = np.zeros((n, 9)), np.zeros((n, 9)), np.zeros(n)
+    for k, body in enumerate(bodies):
+        if body.kind == "chain":
+            extremes[k] = body.extremes
+        elif meshes[k] is not None and body.closed:
+            lo[k], hi[k], low[k], high[k], slack[k] = body.inside_filter
+
+    def joined(parts, width, dtype=np.float64):
+        rows = [np.zeros((0, width)) if p is None else p for p in parts]
+        return np.ascontiguousarray(np.concatenate(rows).reshape(-1, width), dtype), \
+            np.r_[0, np.cumsum([len(p) for p in rows])].astype(np.int64)
+
+    tree_table, tree_at = joined([t and t.table for t in trees], 10)
+    tree_index, _ = joined([t and t.index for t in trees], 3, np.int64)
+    tree_points, tree_points_at = joined([t and t.points for t in trees], 3)
+    mesh_boxes, boxes_at = joined([m and m.boxes for m in meshes], 7)
+    mesh_triangles, triangles_at = joined([m and m.triangles for m in meshes], 9)
+    probes, probes_at = joined(probes, 3)
+    return {"tree_table": tree_table, "tree_index": tree_index, "tree_points": tree_points,
+            "tree_at": tree_at, "tree_points_at": tree_points_at,
+            "tree_depth": np.array([t.depth if t else 0 for t in trees], np.int64),
+            "mesh_boxes": mesh_boxes, "mesh_triangles": mesh_triangles, "boxes_at": boxes_at,
+            "triangles_at": triangles_at,
+            "mesh_depth": np.array([m.depth if m else 0 for m in meshes], np.int64),
+            "probes": probes, "probes_at": probes_at, "extremes": extremes, "inside_lo": lo,
+            "inside_hi": hi, "inside_low": low, "inside_high": high, "inside_slack": slack}
 
 
 # -- clearance ----------------------------------------------------------------------

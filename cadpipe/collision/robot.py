@@ -22,6 +22,8 @@ import numpy as np
 
 from cadpipe.errors import InputError, MeshError, SpecError
 from cadpipe.geometry.mesh import Mesh
+from cadpipe.collision import kinematics
+from cadpipe.collision.packed import Direct
 
 MOVING = ("revolute", "continuous", "prismatic")
 
@@ -111,8 +113,7 @@ class Robot:
     def limits(self):
         """``(2, A)`` lower and upper limits of the :attr:`actuated` joints (+-inf
         for continuous ones)."""
-        k = self._kinematics
-        return np.stack([k["lower"], k["upper"]])
+        return self._kinematics["limits"].copy()
 
     @property
     def default(self):
@@ -149,23 +150,32 @@ class Robot:
         One configuration may also be an ``(A,)`` sequence, a mapping by name
         (missing names take :attr:`default`), or None for :attr:`default`.
         """
-        from cadpipe.collision.kinematics import joint_values
-
         k = self._kinematics
-        q = configurations
-        # an array of the right dtype and shape is taken as it is (the per-state path)
-        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.ndim in (1, 2)
-                and q.shape[-1] == len(k["lower"])):
-            q = self._as_values(q)
+        q = self._checked_shape(configurations)
         q = q[None] if q.ndim == 1 else q
         values = np.empty((len(q), len(self.joints)))
-        bad = joint_values(q, k["lower"], k["upper"], k["actuated"], k["mimic"],
-                           k["mimic_source"], k["mimic_multiplier"], k["mimic_offset"], values)
+        self._raise_outside(q, kinematics.joint_values(q, k["limits"], k["actuated"],
+                                                       k["mimics"], k["mimic_terms"], values))
+        return values
+
+    def _checked_shape(self, configurations):
+        """``(C, A)`` or ``(A,)`` float64 values: an array of the right dtype and
+        shape as it is (the per-state path), anything else through
+        :meth:`_as_values`."""
+        q = configurations
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim in (1, 2) \
+                and q.shape[-1] == len(self.actuated) and q.flags.c_contiguous:
+            return q
+        return self._as_values(q)
+
+    def _raise_outside(self, q, bad):
+        """:class:`InputError` for the value at flat index ``bad`` of ``q`` (C, A)
+        outside its limits (nothing for -1)."""
         if bad >= 0:
             c, a = divmod(bad, q.shape[1])
+            lower, upper = self._kinematics["limits"][:, a]
             raise InputError(f"{self.actuated[a]}={float(q[c, a])!r} is outside its limits "
-                             f"[{k['lower'][a]:g}, {k['upper'][a]:g}]", key="joints")
-        return values
+                             f"[{lower:g}, {upper:g}]", key="joints")
 
     def _as_values(self, configurations):
         """``(C, A)`` or ``(A,)`` float64 joint values from any accepted input, or
@@ -212,12 +222,10 @@ class Robot:
     def _frame_pose_array(self, q, base, frames):
         """``(C, F, 4, 4)`` poses of the frames ``frames`` (F,) (indices into
         :attr:`frames`) at ``(C, J)`` values of every joint."""
-        from cadpipe.collision.kinematics import chain_poses
-
         k = self._kinematics
-        return chain_poses(q, k["origin"], k["turn"], k["turn2"], k["slide"], k["revolute"],
-                           k["prismatic"], k["parent"], k["child"],
-                           _EYE if base is None else np.asarray(base, np.float64), frames)
+        return kinematics.chain_poses(q, k["terms"], k["kinds"], k["joint_links"],
+                                      _EYE if base is None else np.asarray(base, np.float64),
+                                      frames)
 
     def frame_poses(self, configurations, frame, base=None):
         """World pose of ``frame`` (any link of the URDF, with or without geometry,
@@ -252,11 +260,28 @@ class Robot:
         """``(L, 4, 4)`` world poses of the links with geometry at one configuration
         (a sequence over :attr:`actuated`, a mapping by name, or None): the batch
         of one of :meth:`link_pose_array`."""
-        poses = self.link_pose_array(joints, base)
-        if len(poses) != 1:
+        poses = np.empty((len(self.link_meshes), 4, 4))
+        base = _EYE if base is None else np.ascontiguousarray(base, np.float64)
+        self.place_links(joints, base, poses, np.zeros(len(poses), np.int64), 0)
+        return poses
+
+    def place_links(self, joints, base, poses, versions, start):
+        """Pose the links with geometry at one configuration ``joints`` (as for
+        :meth:`link_poses_at`) from ``base`` (4, 4) into rows ``start:start + L``
+        of ``poses`` (N, 4, 4), counting one move in ``versions`` (N,) each: a
+        scene's :meth:`~cadpipe.collision.CollisionWorld.set_joints` in one
+        compiled call (:func:`cadpipe.collision.kinematics.place_links`).
+        Nothing is written when a value is outside its limits."""
+        k = self._kinematics
+        q = self._checked_shape(joints)
+        if q.ndim == 2 and len(q) != 1:
             raise InputError(f"one configuration of robot {self.name} expected, got "
-                             f"{len(poses)}; use link_pose_array() for many", key="joints")
-        return poses[0]
+                             f"{len(q)}; use link_pose_array() for many", key="joints")
+        q = q.reshape(1, -1)
+        self._raise_outside(q, _place_links(q, k["limits"], k["actuated"], k["mimics"],
+                                           k["mimic_terms"], k["terms"], k["kinds"],
+                                           k["joint_links"], base, k["geometry"], poses,
+                                           versions, start))
 
     def link_poses(self, joints=None, base=None):
         """World pose (4x4) of every link that has geometry, by link name."""
@@ -330,27 +355,33 @@ def _kinematics(joints, base, geometry):
     cross -= np.swapaxes(cross, 1, 2)
     slide = np.zeros((len(joints), 4, 4))
     slide[:, :3, 3] = axis
-    return {"links": links, "origin": origin, "turn": origin @ cross,
-            "turn2": origin @ cross @ cross, "slide": origin @ slide,
-            "revolute": np.array([j.kind in ("revolute", "continuous") for j in joints], float),
-            "prismatic": np.array([j.kind == "prismatic" for j in joints], float),
+    mimics = [(k, position[j.mimic[0]]) for k, j in enumerate(joints) if j.mimic]
+    return {"links": links,
+            # per joint: the origin and its products with K, K^2 and the slide (J, 4, 4, 4)
+            "terms": np.ascontiguousarray(np.stack([origin, origin @ cross,
+                                                    origin @ cross @ cross, origin @ slide],
+                                                   axis=1)),
+            # per joint: 1.0 where it turns, 1.0 where it slides (J, 2)
+            "kinds": np.array([[j.kind in ("revolute", "continuous"), j.kind == "prismatic"]
+                               for j in joints], float).reshape(-1, 2),
+            # per joint: the (parent, child) link indices, parents first (J, 2)
+            "joint_links": np.array([[index[j.parent], index[j.child]] for j in joints],
+                                    np.int64).reshape(-1, 2),
             "actuated": np.array(actuated, np.int64),
-            "lower": np.array([joints[k].lower for k in actuated]),
-            "upper": np.array([joints[k].upper for k in actuated]),
-            # mimic joint positions, the joints they follow, multipliers, offsets
-            "mimic": np.array([k for k, j in enumerate(joints) if j.mimic], np.int64),
-            "mimic_source": np.array([position[j.mimic[0]] for j in joints if j.mimic],
-                                     np.int64),
-            "mimic_multiplier": np.array([j.mimic[1] for j in joints if j.mimic], float),
-            "mimic_offset": np.array([j.mimic[2] for j in joints if j.mimic], float),
+            "limits": np.array([[joints[k].lower for k in actuated],
+                                [joints[k].upper for k in actuated]], float).reshape(2, -1),
+            # mimic joint positions and the joints they follow (M, 2), multipliers and
+            # offsets (M, 2)
+            "mimics": np.array(mimics, np.int64).reshape(-1, 2),
+            "mimic_terms": np.array([j.mimic[1:] for j in joints if j.mimic],
+                                    float).reshape(-1, 2),
             "geometry": np.array([index[link] for link in geometry], np.int64),
-            # the same as arrays, for the compiled walk (cadpipe.collision.kinematics)
-            "parent": np.array([index[j.parent] for j in joints], np.int64),
-            "child": np.array([index[j.child] for j in joints], np.int64),
             "frame_index": np.arange(len(links), dtype=np.int64)}
 
 
 _EYE = np.eye(4)
+#: one state's kinematics without numba's per-call dispatch (the types never vary)
+_place_links = Direct(kinematics.place_links)
 
 
 def _joint(j):

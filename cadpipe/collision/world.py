@@ -40,15 +40,17 @@ from typing import TYPE_CHECKING
 from dataclasses import dataclass, field
 from functools import cached_property
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
-from cadpipe.solids.transform import as_matrix
+from cadpipe.solids.transform import _problem as rigid_problem, as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow
+from cadpipe.collision import packed
 from cadpipe.collision.bodies import as_body
 
 if TYPE_CHECKING:                       # the answer types of the optional queries
@@ -62,6 +64,9 @@ STAGES = ("allowed", "aabb", "kdop", "obb", "hull", "certificate", "fcl", "conta
 _CODE = {name: i for i, name in enumerate(STAGES)}
 assert (_CODE["aabb"], _CODE["kdop"], _CODE["obb"], _CODE["hull"]) == \
     (funnel.AABB, funnel.KDOP, funnel.OBB, funnel.HULL)
+assert (_CODE["allowed"], _CODE["not checked"]) == (funnel.ALLOWED, funnel.NOT_CHECKED)
+assert (_CODE["fcl"], _CODE["containment"], _CODE["analytic"]) == \
+    (narrow.FCL, narrow.CONTAINMENT, narrow.ANALYTIC)
 #: configurations per pass of the broad phase (bounds the entry arrays' memory)
 CONFIGURATION_CHUNK = 2048
 #: the first chunk of ``check_path(first_hit=True)``, doubled each pass after it
@@ -74,6 +79,35 @@ def as_pose(transform, name):
     if transform is None:
         return np.eye(4)
     return as_poses(transform, name, shape=(4, 4))
+
+
+@numba.njit(cache=True, nogil=True)
+def _place_pose(matrix, poses, versions, i):
+    """:meth:`Scene.set_pose` of a (4, 4) float64 ``matrix`` in one compiled call:
+    0 when :func:`as_pose` accepts it (it is then written into ``poses[i]`` and
+    ``versions[i]`` counts the move), else what :func:`as_pose` would refuse and
+    nothing is written. A pose set per call: 2.5 us through as_pose, 1 us here."""
+    problem = rigid_problem(matrix.reshape(1, 4, 4), True)
+    if problem == 0:
+        poses[i] = matrix
+        versions[i] += 1
+    return problem
+
+
+# the kernels a single state or pose calls, without numba's per-call dispatch (their
+# argument types never vary here)
+_refresh, _settle = packed.Direct(funnel.refresh), packed.Direct(narrow.settle)
+_place = packed.Direct(_place_pose)
+
+
+def _given_pose(value, name):
+    """``value`` itself when it is a float64 (4, 4) array :func:`as_pose` accepts
+    (one compiled check, no copy: a pose asked about per call is only read),
+    else :func:`as_pose` of it."""
+    if type(value) is np.ndarray and value.shape == (4, 4) and value.dtype == np.float64 \
+            and value.flags.c_contiguous and rigid_problem(value.reshape(1, 4, 4), True) == 0:
+        return value
+    return as_pose(value, name)
 
 
 def as_poses(transforms, name, shape=None):
@@ -194,7 +228,7 @@ class CollisionReport:
     @property
     def colliding(self):
         """Whether any pair touches."""
-        return bool(self.pair_colliding.any())
+        return bool(np.count_nonzero(self.pair_colliding))     # a planner asks this per state
 
     @property
     def allowed(self):
@@ -338,7 +372,12 @@ class Scene:
     def set_pose(self, name, transform):
         """Move object ``name`` to a new rigid 4x4 ``transform``."""
         i = self._find(name)
-        self._moved(i, as_pose(transform, name))
+        # a float64 4x4 array is checked and written in one compiled call; anything
+        # else, and any matrix that fails, goes through as_pose (and its message)
+        if not (type(transform) is np.ndarray and transform.shape == (4, 4)
+                and transform.dtype == np.float64 and transform.flags.c_contiguous
+                and _place(transform, self._poses, self._pose_versions, i) == 0):
+            self._moved(i, as_pose(transform, name))
 
     def _moved(self, ids, poses):
         self._poses[ids] = poses
@@ -397,9 +436,9 @@ class Scene:
         """Re-pose the links of the robot added as ``group`` (one configuration: a
         sequence over ``robot.actuated`` or a mapping by joint name)."""
         robot, base, ids = self._robot(group)
-        # the links were added one after another: a slice moves them without fancy indexing
-        self._moved(slice(ids[0], ids[0] + len(ids)) if len(ids) else ids,
-                    robot.link_poses_at(joints, base))
+        # the links were added one after another, from ids[0] on
+        robot.place_links(joints, base, self._poses, self._pose_versions,
+                          int(ids[0]) if len(ids) else 0)
 
 
 # -- the checker ---------------------------------------------------------------------
@@ -435,6 +474,7 @@ class _Layout:
         self.chosen = {}
         self._bodies = tuple(bodies)
         self.chain = np.array([b.kind == "chain" for b in bodies], bool)
+        self.closed = np.array([b.closed for b in bodies], bool)
 
     @cached_property
     def pieces(self):
@@ -442,6 +482,17 @@ class _Layout:
         from cadpipe.collision.convex import Pieces
 
         return Pieces(self._bodies)
+
+    @cached_property
+    def trees(self):
+        """The arrays of the exact chain tests inside the funnel kernel
+        (:func:`cadpipe.collision.narrow.packed_arrays`): triangle trees only for
+        meshes in a pair with a chain that is not allowed."""
+        table = self.table
+        paired = ~table.allowed & (self.chain[table.first] != self.chain[table.second])
+        near_chain = np.zeros(len(self.chain), bool)
+        near_chain[table.first[paired]] = near_chain[table.second[paired]] = True
+        return narrow.packed_arrays(self._bodies, near_chain & ~self.chain)
 
     def place(self, ids, poses):
         """Bounds of objects ``ids`` (E,) at ``poses`` (E, 4, 4): world 18-DOPs
@@ -467,14 +518,14 @@ class Checker:
     def __init__(self, scene):
         self.scene = scene
         self._layout_key, self._layout = None, None
-        self._answers = {}                 # certify -> _Answers
+        self._records = {}                 # certify -> what _record() returns
 
     @property
     def layout(self):
         if self._layout_key != self.scene.layout_version:
             self._layout = _Layout(self.scene)
             self._layout_key = self.scene.layout_version
-            self._answers.clear()
+            self._records.clear()
             self._placed = _Placed(self._layout)
         return self._layout
 
@@ -507,41 +558,90 @@ class Checker:
     def _standing(self, chosen, stop_after_self, certify, first_hit):
         """The report of the pairs ``chosen`` (P,) where their objects stand; the
         others are ``"allowed"`` or ``"not checked"``."""
-        layout, scene = self.layout, self.scene
-        table, placed = layout.table, self._placed
-        answers = self._answers.get(bool(certify))
-        if answers is None:
-            answers = self._answers[bool(certify)] = _Answers(len(table))
-        versions = scene._pose_versions
-        exact = np.empty(len(table), np.int64)
-        hits = np.zeros(2, bool)                     # (a self pair, another pair) collides
-        count = funnel.refresh(layout.points, layout.pads, layout.starts, layout.slack,
-                               layout.obb_centre, layout.obb_axes, layout.half, scene._poses,
-                               versions, placed.at, placed.kdop, placed.centre, placed.axes,
-                               table.first, table.second, table.same, chosen, answers.at_a,
-                               answers.at_b, answers.code, answers.colliding, exact, hits,
-                               None if certify else layout.pieces.arrays(), layout.chain)
-        if answers.certificates:                     # pairs the boxes have decided since
+        table = self.layout.table
+        record, answers, left, left_poses, hits = self._record(bool(certify))
+        count = len(table.first)
+        codes, colliding = np.empty(count, np.int8), np.empty(count, bool)
+        found = _refresh(record, chosen, bool(first_hit), bool(stop_after_self), codes,
+                         colliding)
+        stopped = stop_after_self and bool(hits[0])
+        if found:
+            stopped = self._settle_left(left[:found], left_poses, answers, hits, codes,
+                                        colliding, stop_after_self, certify, first_hit)
+        certificates = {}
+        if answers.certificates:
             for k in [k for k in answers.certificates if answers.code[k] != _CODE["certificate"]]:
-                del answers.certificates[k]
-        # the exact phase, self pairs first; stop where asked to
-        for pair in exact[:count].tolist():
+                del answers.certificates[k]          # pairs the boxes have decided since
+            certificates = {k: c for k, c in answers.certificates.items()
+                            if codes[k] == _CODE["certificate"]}
+        return CollisionReport(table, codes, colliding, certificates, stopped)
+
+    def _settle_left(self, pairs, left_poses, answers, hits, codes, colliding,
+                     stop_after_self, certify, first_hit):
+        """Settle the ``pairs`` the funnel kernel left (meshes through FCL, probes,
+        certificates), self pairs first, in order, stopping where asked to; store
+        each answer and write it into the report's ``codes`` and ``colliding``.
+        ``left_poses`` (P, 4, 4) holds each pair's relative pose, in the same
+        order, ``hits`` (2,) what the kernel found. Returns whether a
+        self-collision stopped the check."""
+        scene, table = self.scene, self.layout.table
+        versions, bodies = scene._pose_versions, scene._bodies
+        hit_self, hit_other = bool(hits[0]), bool(hits[1])
+        for n, pair in enumerate(pairs.tolist()):
             own = table.same[pair]
-            if (first_hit and hits.any()) or (stop_after_self and not own and hits[0]):
+            if (first_hit and (hit_self or hit_other)) or (stop_after_self and not own
+                                                           and hit_self):
                 break
             i, j = table.first[pair], table.second[pair]
-            code, touching, certs = self._settle(i, j, scene._poses[i][None],
+            certificate = None
+            if not certify and bodies[i].kind == bodies[j].kind == "mesh":
+                touching, contained = narrow.mesh_pair(bodies[i], bodies[j], left_poses[n])
+                code = _CODE["containment" if contained else "fcl"]
+            else:
+                found, hit, certs = self._settle(i, j, scene._poses[i][None],
                                                  scene._poses[j][None], certify)
-            answers.store(pair, code[0], touching[0], versions, table, certs.get(0))
-            hits[0 if own else 1] |= touching[0]
-        stopped = stop_after_self and bool(hits[0])
-        codes, colliding = np.empty(len(table), np.int8), np.empty(len(table), bool)
-        funnel.summarize(chosen, table.same, table.allowed, stopped, table.first, table.second,
-                         versions, answers.at_a, answers.at_b, answers.code, answers.colliding,
-                         codes, colliding, _CODE["allowed"], _CODE["not checked"])
-        certificates = {k: c for k, c in answers.certificates.items()
-                        if codes[k] == _CODE["certificate"]} if answers.certificates else {}
-        return CollisionReport(table, codes, colliding, certificates, stopped)
+                code, touching, certificate = found[0], bool(hit[0]), certs.get(0)
+            answers.store(pair, code, touching, versions, table, certificate)
+            codes[pair], colliding[pair] = code, touching
+            if own:
+                hit_self |= touching
+            else:
+                hit_other |= touching
+        stopped = stop_after_self and hit_self
+        if stopped:                                  # a self-collision stops the other pairs
+            codes[~table.same & ~table.allowed] = _CODE["not checked"]
+            colliding[~table.same] = False
+        return stopped
+
+    def _record(self, certify):
+        """``(record, answers, left, left_poses, hits)``: the
+        :class:`~cadpipe.collision.packed.Packed` record that
+        :func:`~cadpipe.collision.funnel.refresh` works on (layout, placed
+        bounds, answers) and the arrays of it Python reads: each pair's stored
+        answers with ``certify``, the pairs the last call left, their relative
+        poses, its hits; made once per layout."""
+        found = self._records.get(certify)
+        if found is None:
+            layout, placed, scene = self.layout, self._placed, self.scene
+            count = len(layout.table)
+            answers = _Answers(count)
+            left, left_poses = np.empty(count, np.int64), np.empty((count, 4, 4))
+            hits = np.zeros(2, bool)
+            table, pieces = layout.table, layout.pieces
+            record = packed.pack(
+                points=layout.points, pads=layout.pads, starts=layout.starts,
+                slack=layout.slack, obb_centre=layout.obb_centre, obb_axes=layout.obb_axes,
+                half=layout.half, chain=layout.chain, closed=layout.closed,
+                first=table.first, second=table.second, same=table.same,
+                allowed=table.allowed, piece_points=pieces.points, piece_pads=pieces.pads,
+                piece_starts=pieces.piece_starts, piece_centre=pieces.centre,
+                piece_radius=pieces.radius, pieces=pieces.pieces, **layout.trees,
+                poses=scene._poses, versions=scene._pose_versions, placed_at=placed.at,
+                kdop=placed.kdop, centre=placed.centre, axes=placed.axes, at_a=answers.at_a,
+                at_b=answers.at_b, code=answers.code, colliding=answers.colliding,
+                left=left, left_poses=left_poses, hits=hits, certify=certify)
+            found = self._records[certify] = (record, answers, left, left_poses, hits)
+        return found
 
     def _involving(self, group):
         """(P,) mask of the pairs with an object of ``group``."""
@@ -666,6 +766,19 @@ class Checker:
         return codes, touching, certificates
 
     # -- per-pair queries ---------------------------------------------------------
+    def collide_at(self, i, pose_i, j, pose_j):
+        """Whether objects ``i`` and ``j`` collide at poses ``pose_i``, ``pose_j``
+        (4, 4): the compiled walks of the funnel kernel where they decide
+        (:func:`cadpipe.collision.narrow.settle`), :func:`narrow.collide` for the
+        rest; the same answer either way."""
+        pose_i, pose_j = pose_i[None], pose_j[None]
+        code, touching = _settle(self._record(False)[0], i, pose_i, j, pose_j,
+                                 np.empty((1, 4, 4)))
+        if code != narrow.UNSETTLED:
+            return touching
+        bodies = self.scene._bodies
+        return bool(narrow.collide(bodies[i], pose_i, bodies[j], pose_j)[0][0])
+
     def distance(self, a, b):
         """Clearance between ``a`` and ``b`` with the closest points (a
         :class:`Clearance`); 0 when they touch or one contains the other."""
@@ -975,8 +1088,7 @@ class CollisionWorld(Scene):
             True when they collide there.
         """
         i, j = self._find(a), self._find(b)
-        return bool(narrow.collide(self._bodies[i], as_pose(pose_a, a)[None], self._bodies[j],
-                                   as_pose(pose_b, b)[None])[0][0])
+        return self.checker.collide_at(i, _given_pose(pose_a, a), j, _given_pose(pose_b, b))
 
     def separate(self, a: str, b: str,
                  step_degrees: float | None = None) -> "Certificate | None":
