@@ -118,18 +118,18 @@ def _segments_around(groups, rows, before, after):
     return out
 
 
-def _miter_limit_points(tubes):
-    return np.flatnonzero(tubes.miter_stretch > tubes.miter_limit[tubes.lines.groups.index])
-
-
 def _miter_limit(tubes):
     lines = tubes.lines
     stretch = tubes.miter_stretch
     limit = tubes.miter_limit[lines.groups.index]
-    bad = _miter_limit_points(tubes)
+    bad = np.flatnonzero(tubes.over_limit)
 
     def describe(hit):
         i = bad[hit]
+        if not np.isfinite(stretch[i]):
+            return (f"{_where(lines, i)}: the path reverses there (turns by "
+                    f"{np.degrees(lines.turning_angles[i]):.1f} degrees), so the tube must turn "
+                    "round in a ball joint")
         return (f"{_where(lines, i)}: a {np.degrees(lines.turning_angles[i]):.1f} degree "
                 f"corner needs a miter stretch of {stretch[i]:.3g} > miter_limit={limit[i]:g} "
                 "(use corners='round' or a larger miter_limit)")
@@ -177,9 +177,8 @@ def _is_segment(groups):
 def reach(tubes):
     """(N,) how far each point's ring reaches from the path: its radius times the
     miter stretch, or (beyond the miter limit, a ball joint) the widened radius."""
-    stretch = tubes.miter_stretch
-    over = stretch > tubes.miter_limit[tubes.lines.groups.index]
-    return tubes.ring_radii * np.where(over, BALL_REACH, np.maximum(stretch, 1.0))
+    return tubes.ring_radii * np.where(tubes.over_limit, BALL_REACH,
+                                       np.maximum(tubes.miter_stretch, 1.0))
 
 
 def segment_distance(p, u, q, v):
@@ -355,7 +354,7 @@ def _unit_points(tubes, cols, sides):
     """(P, 4 * sides, 3) points whose hull holds each segment's unit, and (P, 3) the
     segments' directions: its two end rings (each twice), or at a corner beyond the
     miter limit (a ball joint) a prism square to the segment around the ball."""
-    from cadpipe.geometry.rings import ring_basis
+    from cadpipe.geometry.rings import ring_basis, square_rings
 
     lines, groups = tubes.lines, tubes.groups
     nxt = groups.following(np.arange(groups.size))[cols]
@@ -363,18 +362,16 @@ def _unit_points(tubes, cols, sides):
     out = []
     for at in (cols, nxt):
         ring = np.matmul(ring_basis(sides), tubes.axes[at])           # (P, sides, 3)
-        over = tubes.miter_stretch[at] > tubes.miter_limit[groups.index[at]]
+        over = tubes.over_limit[at]
         ring_a, ring_b = ring, ring
         if over.any():
-            centre = lines.xyz[:, at[over]].T[:, None]
-            rho = tubes.ring_radii[at[over]][:, None, None]
-            dd = d[over][:, None]
-            flat = ring[over] - centre
-            flat = (flat - np.sum(flat * dd, -1, keepdims=True) * dd) * (
-                BALL_REACH / np.cos(np.pi / sides))
+            rho = tubes.ring_radii[at[over]]
+            dd = d[over]
+            flat = square_rings(lines.xyz[:, at[over]].T, dd,
+                                rho * (BALL_REACH / np.cos(np.pi / sides)), sides)
             ring_a, ring_b = ring.copy(), ring.copy()
-            ring_a[over] = centre + flat - BALL_REACH * rho * dd
-            ring_b[over] = centre + flat + BALL_REACH * rho * dd
+            ring_a[over] = flat - (BALL_REACH * rho)[:, None, None] * dd[:, None]
+            ring_b[over] = flat + (BALL_REACH * rho)[:, None, None] * dd[:, None]
         out += [ring_a, ring_b]
     return np.concatenate(out, axis=1), d
 
@@ -428,7 +425,8 @@ def _apart(pi, pj, axes):
     b = np.einsum("pak,pvk->pav", axes, pj)
     tol = 1e-9 * (np.abs(pi).max(axis=(1, 2)) + np.abs(pj).max(axis=(1, 2)))[:, None]
     apart = (a.max(axis=2) <= b.min(axis=2) + tol) | (b.max(axis=2) <= a.min(axis=2) + tol)
-    return apart.any(axis=1)
+    # a degenerate axis (coincident centres, a zero edge) projects both to one point
+    return (apart & (size[..., 0] > 0)).any(axis=1)
 
 
 def piece_meets_units(tubes, points, cols):

@@ -21,11 +21,12 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
+from cadpipe.geometry.cover import round_cone_covers
 from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, piece_meets_units,
                                         reach, segment_distance)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
-from cadpipe.geometry.rings import Tubes, ring_basis
+from cadpipe.geometry.rings import Tubes, ring_basis, square_rings
 
 CAP_STYLES = ("flat", "round")
 CORNER_STYLES = ("miter", "round")
@@ -393,17 +394,25 @@ class Pipe:
         folds = self._tubes.folds(first_only=first_only)[0]
         if folds and first_only:
             return folds
-        messages, segments = self._cap_folds
+        return self._with_cap_folds(folds)
+
+    def _with_cap_folds(self, folds, ends=(True, True)):
+        """``folds`` (of this pipe's tube) with those of its end caps where ``ends``
+        (start, end) has one: where a cap (round, or an envelope's flat cap reaching
+        ``r`` past the end) overlaps the unit of a segment other than its own, the
+        findings, and the cap's segment and those it reaches to merge. A splice
+        cuts a pipe's ends that meet transitions: they have no cap."""
+        ends = tuple(bool(e) for e in ends)
+        cache = self.__dict__.setdefault("_cap_folds_of", {})     # per pipe, as cached_property
+        if ends not in cache:
+            cache[ends] = self._cap_folds(ends)
+        messages, segments = cache[ends]
         if not messages:
             return folds
         return Folds(folds.messages + messages, np.union1d(folds.segments, segments),
                      folds.joints)
 
-    @cached_property
-    def _cap_folds(self):
-        """Where an end cap (round, or an envelope's flat cap reaching ``r`` past the
-        end) overlaps the unit of a segment other than its own: findings, and the
-        segments a union merges (the cap's own and those it reaches)."""
+    def _cap_folds(self, ends):
         empty = ((), np.empty(0, np.int64))
         count = len(self.path.segments)
         if self.closed or count < 2:
@@ -412,9 +421,10 @@ class Pipe:
         r = reach(tubes)
         reach_seg = np.maximum(r[:-1], r[1:])
         messages, merged = [], []
-        for row, sign, seg, style, name in ((0, -1, 0, self.cap_styles[0], "start"),
-                                            (count, 1, count - 1, self.cap_styles[1], "end")):
-            cap = cap_axes(tubes, row, sign, self, style)
+        for row, sign, seg, style, name, wanted in (
+                (0, -1, 0, self.cap_styles[0], "start", ends[0]),
+                (count, 1, count - 1, self.cap_styles[1], "end", ends[1])):
+            cap = cap_axes(tubes, row, sign, self, style) if wanted else None
             if cap is None:
                 continue
             points = np.concatenate([self.rings()[row],
@@ -549,99 +559,43 @@ class Pipe:
     def collision_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Round cones whose union contains this pipe's mesh: the collision model.
 
-        Per segment, the cone between the balls at its two points, widened by the taper
-        over the miter setbacks; per mitered corner, a capsule from the corner point
-        towards the miter tip (the ring there is an ellipse stretched along the outer
-        bend direction, and the capsule of the ring radius along that semi-axis, minus
-        the radius, holds it); per envelope cap, a ball or capsule reaching the cap's
-        far face. Each unit's axis lies inside the mesh, so the chain exceeds the mesh
-        by at most its largest unit radius (the ring radius, or up to
-        ``1 / cos(pi / (2 (2m - 1)))`` of it at an envelope's round caps).
+        Built from the convex pieces :meth:`mesh` is made of (see
+        :mod:`cadpipe.geometry.cover`), swept stretches included: per segment (or run
+        of segments merged into one hull) a cone between its end rings' centres, its
+        radii grown by whatever of the piece sticks out of them (a taper leaning into
+        a mitred ring); per mitred corner a capsule from the corner point towards the
+        miter tip; per ball (a joint, a corner beyond the miter limit) and round cap a
+        ball; per envelope flat cap a capsule to the cap's face.
+
+        The chain contains the mesh. It exceeds it, beyond flat caps, by up to the
+        ring radius ``rho`` (its units end in balls), and elsewhere by at most
+        ``rho * (1 - cos(pi / sides))`` (the polygon's own chordal deviation) plus
+        what the pieces stick out of their nominal radii: up to
+        :data:`~cadpipe.geometry.clearance.BALL_REACH` ``- 1`` (4 %) of ``rho`` at a
+        swept ball, the sweep's ``1 / cos(D / 2) - 1`` at an envelope's ball joint,
+        and, where a tapered segment meets a mitred corner, its taper times the
+        corner's setback ``rho * tan(turn / 2)``
+        (:data:`COLLISION_EXCESS` states the whole bound per unit).
 
         Returns
         -------
         starts, ends : (U, 3) float
         start_radii, end_radii : (U,) float
         """
-        path, rho = self.path, self.ring_radii
-        n = len(path)
-        i = np.arange(len(path.segments))
-        j = (i + 1) % n
-        setback = rho * np.tan(np.minimum(path.turning_angles, np.pi - 1e-9) / 2)
-        taper = np.abs(rho[j] - rho[i]) / path.segment_lengths
-        starts, ends = [path.points[i]], [path.points[j]]
-        start_r, end_r = [rho[i] + 2 * taper * setback[i]], [rho[j] + 2 * taper * setback[j]]
-        corner = np.flatnonzero((self.miter_stretch > 1 + 1e-12)
-                                & ~joint_rows_of(self._tubes, 0, n - 1, self))
-        if corner.size:
-            outward = -path.bend_directions[corner]
-            starts.append(path.points[corner])
-            ends.append(path.points[corner] + ((self.miter_stretch[corner] - 1)
-                                               * rho[corner])[:, None] * outward)
-            start_r.append(rho[corner])
-            end_r.append(rho[corner])
-        if not self.closed:
-            for row, sign, style in ((0, -1, self.cap_styles[0]), (n - 1, 1, self.cap_styles[1])):
-                cap = cap_axes(self._tubes, row, sign, self, style)
-                if cap is None or (style == "round" and not self.envelope):
-                    continue                    # within the end ball already
-                end = path.points[row]
-                if style == "flat":
-                    far = cap[0][0, 2]
-                    starts.append(end[None])
-                    ends.append(far[None])
-                    start_r.append(rho[row:row + 1])
-                    end_r.append(rho[row:row + 1])
-                else:
-                    vertices = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
-                    extent = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
-                    starts.append(end[None])
-                    ends.append(end[None])
-                    start_r.append([max(extent, rho[row])])
-                    end_r.append([max(extent, rho[row])])
-        return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
-                np.concatenate(end_r))
+        count = len(self.path.segments)
+        folds = self._folds()
+        merged, joints = self._swept_plan(folds) if folds else (np.zeros(count, bool),
+                                                                  np.empty(0, np.int64))
+        units = [_segment_covers(self, np.flatnonzero(~merged))]
+        if merged.any():
+            units.append(_piece_covers(_unit_pieces(self, np.flatnonzero(merged), joints,
+                                                    tongue=TONGUE)))
+        return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
 
     def _swept_mesh(self, folds):
         """The tube with each stretch that folds replaced by the union of its convex
-        units (:func:`_units`), the clean stretches kept as they are, all united by
-        manifold3d and welded at float32 precision (:func:`welded_solid`).
-
-        Inside a merged stretch every corner beyond the miter limit, and every ball
-        joint, is a ball with the units cut square at it; a stretch is widened until
-        it ends on plain rings, so a clean piece never ends on a joint."""
-        import manifold3d
-
-        n, count = len(self.path), len(self.path.segments)
-        merged = np.zeros(count, bool)
-        merged[folds.segments] = True
-        rows = np.arange(n)
-        before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
-        after = np.where(rows < count, rows, -1)
-        corner = (before >= 0) & (after >= 0)
-        ball = corner & (joint_rows_of(self._tubes, 0, n - 1, self)
-                         | (self.miter_stretch > self.miter_limit))
-        ball[folds.joints] = True
-        while True:                         # widen stretches that end on a ball joint
-            touched = ball & (merged[before] | merged[after]) & ~(merged[before]
-                                                                  & merged[after])
-            if not touched.any():
-                break
-            merged[before[touched]] = merged[after[touched]] = True
-        joints = np.flatnonzero(ball & merged[before] & merged[after])
-        # manifold3d's tolerance grows with the coordinates: unite about the pipe's middle
-        low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
-        middle = 0.5 * (low + high)
-        pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE)
-        solids = [manifold3d.Manifold.hull_points(p - middle) for p in pieces]
-        if not merged.all():
-            for a, b in _runs(~merged, self.closed):
-                piece = self._piece(a, b)
-                solids.append(Mesh.trusted(piece.vertices - middle, piece.faces)
-                              .to_manifold("pipe"))
-        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
-        solid = solid.translate(tuple(middle.tolist()))
-        stretches = _runs(merged, self.closed)
+        units, as one welded mesh (see :meth:`_swept_solid` and :func:`welded_solid`)."""
+        solid, stretches = self._swept_solid(folds)
         arc = self.path.arc_length
         spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
                                      else self.path.length)) for a, b in stretches]
@@ -652,13 +606,76 @@ class Pipe:
             "merged_arc_lengths": tuple(x for span in spans for x in span),
             "folds": folds.messages[0]})
 
-    def _piece(self, first, last):
+    def _swept_solid(self, folds, ends=(True, True)):
+        """The tube with each stretch that folds replaced by the union of its convex
+        units (:func:`_units`), the clean stretches kept as they are, all united by
+        manifold3d.
+
+        Inside a merged stretch every corner beyond the miter limit, and every ball
+        joint, is a ball with the units cut square at it; a stretch is widened until
+        it ends on plain rings, so a clean piece never ends on a joint.
+
+        Parameters
+        ----------
+        folds : Folds
+            Where the tube folds (:meth:`folds`, or :meth:`_with_cap_folds` for the
+            same ``ends``).
+        ends : (bool, bool)
+            Whether the start and end keep their caps; False cuts that end flat on its
+            last ring (where a splice's transition continues it).
+
+        Returns
+        -------
+        solid : manifold3d.Manifold
+        stretches : list of (int, int)
+            The merged segments' runs, first and last segment (wrapping around a
+            closed pipe).
+        """
+        import manifold3d
+
+        merged, joints = self._swept_plan(folds)
+        # manifold3d's tolerance grows with the coordinates: unite about the pipe's middle
+        low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
+        middle = 0.5 * (low + high)
+        pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE, capped=ends)
+        solids = [manifold3d.Manifold.hull_points(p - middle) for p in pieces]
+        if not merged.all():
+            for a, b in _runs(~merged, self.closed):
+                piece = self._piece(a, b, ends)
+                solids.append(Mesh.trusted(piece.vertices - middle, piece.faces)
+                              .to_manifold("pipe"))
+        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+        return solid.translate(tuple(middle.tolist())), _runs(merged, self.closed)
+
+    def _swept_plan(self, folds):
+        """``(merged, joints)``: (M,) which segments the swept solid builds from their
+        convex units, and the corners inside them that are balls (beyond the miter
+        limit, reversals, ball joints), the merged stretches widened until they end on
+        plain rings."""
+        n, count = len(self.path), len(self.path.segments)
+        merged = np.zeros(count, bool)
+        merged[folds.segments] = True
+        rows = np.arange(n)
+        before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
+        after = np.where(rows < count, rows, -1)
+        corner = (before >= 0) & (after >= 0)
+        ball = corner & (joint_rows_of(self._tubes, 0, n - 1, self) | self._tubes.over_limit)
+        ball[folds.joints] = True
+        while True:                         # widen stretches that end on a ball joint
+            touched = ball & (merged[before] | merged[after]) & ~(merged[before]
+                                                                  & merged[after])
+            if not touched.any():
+                break
+            merged[before[touched]] = merged[after[touched]] = True
+        return merged, np.flatnonzero(ball & merged[before] & merged[after])
+
+    def _piece(self, first, last, ends=(True, True)):
         """The closed solid of the clean segments ``first..last`` (wrapping around a
         closed pipe): laid out by :func:`add_pipe_surfaces` as the whole pipe is, with
-        flat fans where the stretch is cut."""
+        flat fans where the stretch is cut (and at ends ``ends`` leaves without cap)."""
         surface = Surface()
         add_pipe_surfaces(surface, self._tubes, [self], cap_start=[True], cap_end=[True],
-                          windows=[(first, last)])
+                          windows=[(first, last)], cut=[(not ends[0], not ends[1])])
         vertices, faces, _ = surface.build()
         return Mesh.trusted(vertices, faces)
 
@@ -771,19 +788,42 @@ def _runs(mask, closed):
     return [((a + shift) % n, (b + shift) % n) for a, b in zip(starts.tolist(), stops.tolist())]
 
 
-def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
-    """Point sets whose convex hulls together make the tube along ``segments``.
+def _units(pipe, segments, joints, overlap=0.0, tongue=0.0, capped=(True, True)):
+    """Point sets whose convex hulls together make the tube along ``segments``: the
+    points of each :func:`_unit_pieces` piece."""
+    return [piece.points for piece in _unit_pieces(pipe, segments, joints, overlap, tongue,
+                                                   capped)]
+
+
+@dataclass(frozen=True)
+class _Piece:
+    """A convex piece of a tube: the hull of ``points`` (K, 3), along the spine ``a ->
+    b`` whose rings nominally have radii ``ra``, ``rb``; past an end it leans out
+    towards that end's ``tip`` (a mitred corner's; the end itself elsewhere). See
+    :func:`~cadpipe.geometry.cover.round_cone_covers`."""
+
+    points: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    ra: float
+    rb: float
+    tip_a: np.ndarray
+    tip_b: np.ndarray
+
+
+def _unit_pieces(pipe, segments, joints, overlap=0.0, tongue=0.0, capped=(True, True)):
+    """The convex pieces (:class:`_Piece`) that together make the tube along ``segments``.
 
     Each segment's unit is its two end rings (a run of nearly straight segments one
     hull of their rings, see :func:`_hull_groups`); at a corner in ``joints`` (beyond
     the miter limit, or a ball joint) the rings there are cut square to the segment
-    instead and a ball
-    (:func:`_ball`) holds the corner. Round caps of an open pipe join the units of
-    its end segments. Where another segment continues a unit, its ring there is
-    pushed ``overlap`` along the unit's own segment, and a ``tongue`` (a fraction of
-    the ring radius) adds the ring shrunk by that fraction and moved as far into the
-    next segment: the hulls then cross their neighbours at steep angles instead of
-    sharing a face (manifold3d may leave a shared face's corners doubled).
+    instead and a ball (:func:`_ball`) holds the corner. Caps of an open pipe join the
+    units of its end segments (at the ends ``capped`` says keep them). Where another
+    segment continues a unit, its ring there is pushed ``overlap`` along the unit's own
+    segment, and a ``tongue`` (a fraction of the ring radius) adds the ring shrunk by
+    that fraction and moved as far into the next segment: the hulls then cross their
+    neighbours at steep angles instead of sharing a face (manifold3d may leave a shared
+    face's corners doubled).
     """
     path = pipe.path
     with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
@@ -794,6 +834,7 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
     at_joint[joints] = True
     directions, centres, lengths = path.directions, path.points, path.segment_lengths
     radii = pipe.ring_radii
+    tips = np.where(at_joint[:, None], centres, _miter_tips(pipe))
 
     def into(p, seg, sign):
         """Ring ``p`` shrunk and moved into segment ``seg`` (``sign``: along or back)."""
@@ -806,15 +847,9 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
         q = (k + 1) % n if p == k else k
         d = directions[k]
         if at_joint[q]:
-            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
-            e1 /= np.linalg.norm(e1)
-            offsets = float(radii[p]) * (np.outer(np.cos(2 * np.pi * np.arange(pipe.sides)
-                                                         / pipe.sides), e1)
-                                         + np.outer(np.sin(2 * np.pi * np.arange(pipe.sides)
-                                                           / pipe.sides), np.cross(d, e1)))
-        else:
-            offsets = rings[q] - centres[q]
-            offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
+            return square_rings(centres[p][None], d[None], radii[p:p + 1], pipe.sides)[0]
+        offsets = rings[q] - centres[q]
+        offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
         return centres[p] + offsets
 
     pieces = []
@@ -830,21 +865,118 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
                 ends.append(into(p, other % count, sign))
             ends.append(ring + (sign * overlap * inner) * directions[k])
         ends.insert(len(ends) // 2, rings[first + 1:last + 1].reshape(-1, 3))
-        pieces.append(np.concatenate(ends))
+        a, b = first, (last + 1) % n
+        pieces.append(_Piece(np.concatenate(ends), centres[a], centres[b], float(radii[a]),
+                             float(radii[b]), tips[a], tips[b]))
     for k in joints.tolist():
-        pieces.append(_ball(centres[k], float(radii[k])))
+        pieces.append(_Piece(_ball(centres[k], float(radii[k])), centres[k], centres[k],
+                             0.0, 0.0, centres[k], centres[k]))
     if not pipe.closed:
-        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
-                                      (n - 1, 1, count - 1, pipe.cap_styles[1])):
-            end_cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+        for row, sign, seg, style, wanted in ((0, -1, 0, pipe.cap_styles[0], capped[0]),
+                                              (n - 1, 1, count - 1, pipe.cap_styles[1], capped[1])):
+            end_cap = cap_axes(pipe._tubes, row, sign, pipe, style) if wanted else None
             if end_cap is not None and seg in set(np.asarray(segments).tolist()):
-                axes, pole = end_cap
-                cap = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
                 inside = into(row, seg, -sign) if tongue else rings[row] - (
                     sign * overlap) * directions[seg]
-                tip = np.empty((0, 3)) if pole is None else pole[None]
-                pieces.append(np.concatenate([rings[row], inside, cap, tip]))
+                pieces.append(_cap_piece(pipe, row, end_cap, [rings[row], inside]))
     return pieces
+
+
+def _cap_piece(pipe, row, cap, rings):
+    """The :class:`_Piece` of an end cap (``cap`` as :func:`cap_axes` gives it) closing
+    ``rings`` at path point ``row``: a round cap is held by a ball about the end, an
+    envelope's flat cap by the capsule to its face."""
+    axes, pole = cap
+    end = pipe.path.points[row]
+    points = np.concatenate([*rings, np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3),
+                             np.empty((0, 3)) if pole is None else pole[None]])
+    face = end if pole is not None else axes[0, 2]
+    radius = float(pipe.ring_radii[row])
+    return _Piece(points, end, face, radius, radius, end, face)
+
+
+def _miter_tips(pipe):
+    """(N, 3) how far a capsule of the ring radius must run out from each corner point
+    to hold its mitred ring's outside: ``(stretch - 1) rho`` outwards in the bend plane
+    (the ring reaches ``stretch * rho``), but no farther than ``stretch * rho *
+    cos(pi / sides)``, which the ring's polygon always reaches, so the capsule's axis
+    stays inside the tube (the corner point itself where the path runs straight,
+    reverses or ends)."""
+    stretch = pipe.miter_stretch
+    lean = np.where(np.isfinite(stretch), np.minimum(stretch - 1.0, stretch * np.cos(
+        np.pi / pipe.sides)), 0.0) * pipe.ring_radii
+    return pipe.path.points - lean[:, None] * pipe.path.bend_directions
+
+
+def _segment_covers(pipe, segments):
+    """The collision units (starts, ends, start radii, end radii) of the plain tube along
+    ``segments`` (laid out as :meth:`Pipe.surface` lays it out): each segment's unit,
+    the capsules of its mitred corners, its ball joints and the caps of its ends."""
+    n = len(pipe.path)
+    empty = (np.empty((0, 3)), np.empty((0, 3)), np.empty(0), np.empty(0))
+    if not len(segments):
+        return empty
+    centres, radii = pipe.path.points, pipe.ring_radii
+    jointed = np.flatnonzero(joint_rows_of(pipe._tubes, 0, n - 1, pipe))
+    tips = _miter_tips(pipe)
+    tips[jointed] = centres[jointed]
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
+    start_ring, end_ring = rings.copy(), rings.copy()
+    joint_units = []
+    for row in jointed.tolist():
+        outer, swept = _joint(pipe._tubes, row, pipe)
+        end_ring[row], start_ring[row] = swept[0], swept[-1]
+        reach_ = float(np.linalg.norm(swept[:, outer] - centres[row], axis=2).max())
+        joint_units.append((centres[row], centres[row], reach_, reach_))
+    a, b = np.asarray(segments), (np.asarray(segments) + 1) % n
+    wedge = np.zeros(n)
+    need = np.zeros(n, bool)
+    cones = []
+    for rows in np.array_split(np.arange(len(a)), max(1, len(a) // COVER_BLOCK)):
+        ka, kb = a[rows], b[rows]
+        cone, before, past = round_cone_covers(
+            np.concatenate([start_ring[ka], end_ring[kb]], axis=1), centres[ka], centres[kb],
+            radii[ka], radii[kb], tips[ka], tips[kb])
+        cones.append(cone)
+        for at, (_, radius, needed) in ((ka, before), (kb, past)):
+            np.maximum.at(wedge, at, np.where(needed, radius, 0.0))
+            need[at] |= needed
+    corner = np.flatnonzero(need)
+    units = [tuple(np.concatenate([c[k] for c in cones]) for k in range(4)),
+             (centres[corner], tips[corner], wedge[corner], wedge[corner])]
+    if joint_units:
+        units.append(tuple(np.array(v) for v in zip(*joint_units)))
+    if not pipe.closed:
+        caps = []
+        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
+                                      (n - 1, 1, len(pipe.path.segments) - 1,
+                                       pipe.cap_styles[1])):
+            cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+            if cap is not None and seg in set(np.asarray(segments).tolist()):
+                caps.append(_cap_piece(pipe, row, cap, [rings[row]]))
+        if caps:
+            units.append(_piece_covers(caps))
+    return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+def _piece_covers(pieces):
+    """The collision units of convex pieces (:class:`_Piece`): their round cone covers
+    (:func:`~cadpipe.geometry.cover.round_cone_covers`), one piece at a time."""
+    units = []
+    for piece in pieces:
+        cone, before, past = round_cone_covers(
+            piece.points[None], piece.a[None], piece.b[None], np.array([piece.ra]),
+            np.array([piece.rb]), piece.tip_a[None], piece.tip_b[None])
+        units.append(cone)
+        for centre, (tip, radius, needed) in ((piece.a, before), (piece.b, past)):
+            if needed[0]:
+                units.append((centre[None], tip, radius, radius))
+    return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+#: segments whose covers are computed at once (bounds the memory of their points)
+COVER_BLOCK = 4096
 
 
 def _hull_groups(pipe, segments, at_joint):
@@ -945,7 +1077,8 @@ def _end_radius(pipe, sign):
     return float(pipe.radii[0 if sign < 0 else -1])
 
 
-def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None):
+def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None,
+                      cut=None):
     """Lay out the pipes (``tubes``' groups, in order) in ``surface``: their rings, side
     faces, ball joints and the requested caps (see :meth:`Pipe.surface`).
 
@@ -953,7 +1086,8 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, 
     segments ``first..last`` of a pipe (around a closed one they may wrap, ``last <
     first``): the same rings, joints and caps, closed by a flat fan on the ring where the
     window cuts the tube. The clean pieces of a swept solid are built here, as the
-    whole pipe is, so no piece can miss a joint or a cap.
+    whole pipe is, so no piece can miss a joint or a cap. ``cut`` (per pipe ``(start,
+    end)`` bools) closes those of its own ends by a flat fan too, instead of its cap.
 
     Returns the vertex index of each pipe's first and last ring laid out (its own, not a
     cap's).
@@ -975,7 +1109,9 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, 
         rolls.append(roll)
         rows_of.append(rows)
         closed.append(pipe.closed and window is None)
-        ends.append((not pipe.closed and rows[0] == first, not pipe.closed and rows[-1] == last))
+        cuts = (False, False) if cut is None else cut[g]
+        ends.append((not pipe.closed and rows[0] == first and not cuts[0],
+                     not pipe.closed and rows[-1] == last and not cuts[1]))
     # caps: at most the two ends of a chain, or a lone pipe's; a cut end is a flat fan
     capped = [g for g in range(len(pipes)) if (cap_start[g] or cap_end[g]) and not closed[g]]
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
@@ -1055,7 +1191,7 @@ def joint_rows_of(tubes, first, last, pipe):
     tip would stick out farther than the ring polygon's own chordal deviation,
     ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep their miter, which
     already holds the corner's ball."""
-    if pipe.corners != "round" or pipe.envelope:
+    if pipe.corners != "round":
         return np.zeros(last - first + 1, bool)
     return tubes.miter_stretch[first:last + 1] - 1.0 > 1.0 - np.cos(np.pi / pipe.sides)
 
@@ -1094,11 +1230,16 @@ def _joint(tubes, row, pipe):
     offsets = radius * (np.cos(a)[:, None] * _rotate(normal[None], axis, -turn / 2)
                         + np.sin(a)[:, None] * _rotate(binormal[None], axis, -turn / 2))
     steps = max(1, int(np.ceil(turn / (np.pi / 2) * pipe.cap_steps)))
-    angles = turn * np.arange(steps + 1) / steps
+    if pipe.envelope:       # each vertex's arc about the axis circumscribed, as a cap's
+        step = turn / steps
+        angles = np.concatenate([[0.0], (np.arange(steps) + 0.5) * step, [turn]])
+        scale = np.concatenate([[1.0], np.full(steps, 1 / np.cos(step / 2)), [1.0]])
+    else:
+        angles, scale = turn * np.arange(steps + 1) / steps, np.ones(steps + 1)
     along = np.outer(offsets @ axis, axis)
     rings = np.empty((len(angles), n, 3))
-    for k, angle in enumerate(angles.tolist()):
-        rings[k] = centre + along + _rotate(offsets - along, axis, angle)
+    for k, (angle, grow) in enumerate(zip(angles.tolist(), scale.tolist())):
+        rings[k] = centre + along + grow * _rotate(offsets - along, axis, angle)
     rings[:, ~outer] = miter[~outer]
     return outer, rings
 

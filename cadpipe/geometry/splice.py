@@ -147,7 +147,6 @@ def make_room(pipes, closed=False, transition="lcm"):
     while True:
         trimmed, tubes = _room_for_transitions(pipes, tubes_of(pipes), before[~joint],
                                                after[~joint])
-        _check_pipes(tubes)
         bridges, bent = _transition_tubes(tubes, before[~joint], after[~joint], transition,
                                           check=True)
         if not bent.any():
@@ -155,11 +154,19 @@ def make_room(pipes, closed=False, transition="lcm"):
         joint[np.flatnonzero(~joint)[bent]] = True
 
 
-def _check_pipes(tubes):
-    for i, problems in enumerate(tubes.self_intersection_findings()):
-        if problems:
-            raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}",
-                                key="pipes", index=i)
+def _pipe_folds(pipes, tubes, cap_start, cap_end):
+    """Per pipe, where its tube folds (:class:`~cadpipe.geometry.clearance.Folds`), its
+    caps included where it keeps them; a pipe made with ``strict=True`` that folds is
+    a :class:`GeometryError` (the others become their swept solids)."""
+    folds = [pipe._with_cap_folds(f, (start, end)) for pipe, f, start, end in
+             zip(pipes, tubes.folds(), cap_start, cap_end)]
+    for i, (pipe, f) in enumerate(zip(pipes, folds)):
+        if f and pipe.strict:
+            raise GeometryError(f"splice: pipe {i} intersects itself: {f.messages[0]}; "
+                                "smooth its path, reduce its radius, or build its swept "
+                                "solid (strict=False)", key="pipes", index=i,
+                                fix={"strict": False})
+    return folds
 
 
 def _room_for_transitions(pipes, tubes, before, after):
@@ -228,15 +235,18 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridg
     balls = [surface.part(f"joint{b}") for b in before[joint].tolist()]
     vertices, faces, face_part = surface.build()
     attributes = {"kind": "chain", "parts": len(surface.part_names)}
-    crossing = [] if joint.any() else _crossing_pieces(
+    folds = _pipe_folds(pipes, tubes, cap_start, cap_end)
+    swept = [i for i, f in enumerate(folds) if f]
+    crossing = [] if joint.any() or swept else _crossing_pieces(
         _chain_axes(tubes, bridges, before, pipes, closed, surface), closed)
-    if not crossing and not joint.any():
+    if not crossing and not joint.any() and not swept:
         return Mesh.trusted(vertices, faces, face_part=face_part,
                             part_names=surface.part_names, attributes=attributes)
     names = surface.part_names
     joined = [f"pipe{b} and pipe{a} (a ball joint)"
               for b, a in zip(before[joint].tolist(), after[joint].tolist())]
-    merged = [f"{names[i]} and {names[j]} (they cross)" for i, j in crossing] + joined
+    merged = [f"pipe{i} (its swept solid: it overlaps itself)" for i in swept] + [
+        f"{names[i]} and {names[j]} (they cross)" for i, j in crossing] + joined
     if strict:
         raise GeometryError(f"splice: {merged[0]}" + (f" (and {len(merged) - 1} more)"
                                                       if len(merged) > 1 else "")
@@ -247,8 +257,10 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridg
         vertices, faces, face_part = _close_cuts(vertices, faces, face_part, cuts)
     joints = [_ball_joint(tubes, b, a) for b, a in zip(before[joint].tolist(),
                                                         after[joint].tolist())]
+    solids = {surface.part(f"pipe{i}"): Mesh.from_manifold(pipes[i]._swept_solid(
+        folds[i], (cap_start[i], cap_end[i]))[0]) for i in swept}
     return united(vertices, faces, face_part, names, joints, balls,
-                  {**attributes, "merged": "; ".join(merged)})
+                  {**attributes, "merged": "; ".join(merged)}, solids)
 
 
 def _flat_at(pipe, start, end):
@@ -585,19 +597,23 @@ def _ball_joint(tubes, b, a):
                            for row in rows])
 
 
-def united(vertices, faces, face_part, names, hulls, hull_parts, attributes):
+def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pieces=None):
     """The union through manifold3d of the closed pieces of a surface (its faces by part)
     and of the convex hulls of ``hulls`` (point sets, parts ``hull_parts``), faces
-    still labelled by the piece they came from."""
+    still labelled by the piece they came from. ``pieces`` ({part: Mesh}) replaces
+    those parts' faces by a closed mesh of their own (a pipe's swept solid)."""
     import manifold3d
 
     from cadpipe.solids.booleans import reserve_ids
 
+    pieces = {} if pieces is None else pieces
     ids = list(reserve_ids(len(names)))
     order = np.argsort(face_part, kind="stable")
     bounds = np.searchsorted(face_part[order], np.arange(len(names) + 1))
-    solids = []
+    solids = [piece.to_manifold(names[k], ids[k]) for k, piece in pieces.items()]
     for k in np.flatnonzero(np.diff(bounds) > 0).tolist():
+        if k in pieces:
+            continue
         used, local = np.unique(faces[order[bounds[k]:bounds[k + 1]]], return_inverse=True)
         solids.append(Mesh.trusted(vertices[used], local.reshape(-1, 3))
                       .to_manifold(names[k], ids[k]))
