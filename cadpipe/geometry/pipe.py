@@ -21,6 +21,7 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
+from cadpipe.geometry.bands import band_planes, clearance
 from cadpipe.geometry.cover import round_cone_covers
 from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, piece_meets_units,
                                         reach, segment_distance)
@@ -285,8 +286,43 @@ class Pipe:
         slope = 1.0 / np.sqrt(1.0 - sine ** 2)
         before = np.roll(slope, 1) if self.closed else np.concatenate([slope[:1], slope])
         after = slope if self.closed else np.concatenate([slope, slope[-1:]])
-        return _frozen(r * envelope_factor(self.sides) * np.maximum(before, after)
-                       / np.cos(self._twist_bound / 2))
+        start = (r * envelope_factor(self.sides) * np.maximum(before, after)
+                 / np.cos(self._twist_bound / 2))
+        return _frozen(start * self._envelope_growth(start))
+
+    def _envelope_growth(self, start):
+        """(N,) how much the envelope's rings (``start``: radii from the taper and twist
+        alone) must grow for every face to clear the balls it holds. A band's faces
+        must lie at least ``r`` from the ball centres at both its rings (then from every
+        ball between them: both distances are linear along the segment); a mitred ring
+        on a taper leans its faces towards the corner, a twisted band bends its quads
+        in. Each band short of that grows both its rings, until none is
+        (:data:`ENVELOPE_PASSES` at most)."""
+        r = self.radii
+        tubes = tubes_of([self], [start])
+        centres = self.path.points
+        first = np.arange(len(self.path.segments))
+        second = (first + 1) % len(self.path)
+        with np.errstate(invalid="ignore"):             # a reversal's ring: swept anyway
+            offsets = tubes.rings(slice(None), self.sides) - centres[:, None]
+        last = offsets[second]
+        if self.closed:                                 # the seam meets ring 0 turned
+            last[-1] = np.roll(last[-1], -tubes.seam_shift[0], axis=0)
+        grow = np.ones(len(r))
+        for _ in range(ENVELOPE_PASSES):
+            normals, planes = band_planes(centres[first, None] + grow[first, None, None]
+                                          * offsets[first], centres[second, None]
+                                          + grow[second, None, None] * last)
+            short = np.maximum(r[first] / clearance(normals, planes, centres[first]),
+                               r[second] / clearance(normals, planes, centres[second]))
+            short = np.where(np.isfinite(short) & (short > 0), short, 1.0)
+            if (short <= 1 + 1e-12).all():
+                break
+            need = np.ones(len(r))
+            np.maximum.at(need, first, short)
+            np.maximum.at(need, second, short)
+            grow *= need * (1 + 1e-9)
+        return grow
 
     @cached_property
     def _twist_bound(self) -> float:
@@ -479,10 +515,10 @@ class Pipe:
         """
         self._require_float32()
         folds = self._folds(first_only=self.strict)
-        if not folds:
+        if not folds and not self._united_joints:
             vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
             return Mesh.trusted(vertices, faces, attributes=self.attributes)
-        if self.strict:
+        if folds and self.strict:
             problems = folds.messages
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
@@ -584,18 +620,29 @@ class Pipe:
         """
         count = len(self.path.segments)
         folds = self._folds()
-        merged, joints = self._swept_plan(folds) if folds else (np.zeros(count, bool),
-                                                                  np.empty(0, np.int64))
+        merged, joints = self._swept_plan(folds) if folds or self._united_joints else (
+            np.zeros(count, bool), np.empty(0, np.int64))
         units = [_segment_covers(self, np.flatnonzero(~merged))]
         if merged.any():
             units.append(_piece_covers(_unit_pieces(self, np.flatnonzero(merged), joints,
                                                     tongue=TONGUE)))
         return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
 
+    @cached_property
+    def _united_joints(self):
+        """Whether the mesh unites ball joints with their segments even where the tube
+        does not fold: an envelope's round corners (see :func:`joint_rows_of`)."""
+        return self.envelope and bool(round_corner_rows(self._tubes, 0, len(self.path) - 1,
+                                                        self).any())
+
     def _swept_mesh(self, folds):
-        """The tube with each stretch that folds replaced by the union of its convex
-        units, as one welded mesh (see :meth:`_swept_solid` and :func:`welded_solid`)."""
+        """The tube with each stretch that folds (and each envelope ball joint)
+        replaced by the union of its convex units, as one welded mesh (see
+        :meth:`_swept_solid` and :func:`welded_solid`); where it folds,
+        ``attributes["merged"]`` names the merged stretches."""
         solid, stretches = self._swept_solid(folds)
+        if not folds:
+            return welded_solid(solid, attributes=self.attributes)
         arc = self.path.arc_length
         spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
                                      else self.path.length)) for a, b in stretches]
@@ -651,7 +698,8 @@ class Pipe:
         """``(merged, joints)``: (M,) which segments the swept solid builds from their
         convex units, and the corners inside them that are balls (beyond the miter
         limit, reversals, ball joints), the merged stretches widened until they end on
-        plain rings."""
+        plain rings. An envelope's round corners are always balls (see
+        :func:`joint_rows_of`), so the segments beside them are always merged."""
         n, count = len(self.path), len(self.path.segments)
         merged = np.zeros(count, bool)
         merged[folds.segments] = True
@@ -659,8 +707,11 @@ class Pipe:
         before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
         after = np.where(rows < count, rows, -1)
         corner = (before >= 0) & (after >= 0)
-        ball = corner & (joint_rows_of(self._tubes, 0, n - 1, self) | self._tubes.over_limit)
+        round_ = corner & round_corner_rows(self._tubes, 0, n - 1, self)
+        ball = round_ | (corner & self._tubes.over_limit)
         ball[folds.joints] = True
+        if self.envelope:
+            merged[before[round_]] = merged[after[round_]] = True
         while True:                         # widen stretches that end on a ball joint
             touched = ball & (merged[before] | merged[after]) & ~(merged[before]
                                                                   & merged[after])
@@ -680,6 +731,8 @@ class Pipe:
         return Mesh.trusted(vertices, faces)
 
 
+#: most passes of growing an envelope's rings until its faces clear its balls
+ENVELOPE_PASSES = 8
 #: merged units reach this fraction of the ring radius into their neighbours (see _units)
 TONGUE = 1e-3
 
@@ -868,8 +921,11 @@ def _unit_pieces(pipe, segments, joints, overlap=0.0, tongue=0.0, capped=(True, 
         a, b = first, (last + 1) % n
         pieces.append(_Piece(np.concatenate(ends), centres[a], centres[b], float(radii[a]),
                              float(radii[b]), tips[a], tips[b]))
+    # an envelope's ball circumscribes the ball of the path's radius (its rings, those
+    # of the polygon circumscribing that ball's sections, are wider)
+    ball_radii = pipe.radii if pipe.envelope else radii
     for k in joints.tolist():
-        pieces.append(_Piece(_ball(centres[k], float(radii[k])), centres[k], centres[k],
+        pieces.append(_Piece(_ball(centres[k], float(ball_radii[k])), centres[k], centres[k],
                              0.0, 0.0, centres[k], centres[k]))
     if not pipe.closed:
         for row, sign, seg, style, wanted in ((0, -1, 0, pipe.cap_styles[0], capped[0]),
@@ -1014,10 +1070,12 @@ def _ball(centre, radius):
     return centre + (BALL_REACH * radius) * unit
 
 
-def tubes_of(pipes):
-    """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes` batch."""
+def tubes_of(pipes, ring_radii=None):
+    """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes`
+    batch (``ring_radii``: per pipe, instead of their own)."""
     return Tubes(polylines([p.path for p in pipes]),
-                 np.concatenate([p.ring_radii for p in pipes]),
+                 np.concatenate([p.ring_radii for p in pipes] if ring_radii is None
+                                else ring_radii),
                  [p.sides for p in pipes],
                  [p.miter_limit if p.corners == "miter" else np.inf for p in pipes],
                  patent=[p.frame == "patent" for p in pipes],
@@ -1184,13 +1242,21 @@ def _window_axes(tubes, rows, shift, sides):
 
 # -- ball joints (corners="round") -------------------------------------------------
 def joint_rows_of(tubes, first, last, pipe):
-    """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) get a ball
-    joint: with ``corners="round"`` (and no envelope: a joint's faces beside the bend
-    axis fan from one unswept vertex and cut across the ball, so an envelope keeps
-    its miter joints, which hold every ball on the path), the corners whose miter
-    tip would stick out farther than the ring polygon's own chordal deviation,
-    ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep their miter, which
-    already holds the corner's ball."""
+    """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) are laid out as
+    a ball joint (:func:`_joint`): with ``corners="round"`` and no envelope, the
+    corners that :func:`round_corner_rows` names. An envelope's round corners are
+    balls that circumscribe the ball of the path's radius, united with the segments
+    cut square at the corner (see :meth:`Pipe._swept_plan`): the swept joint's faces
+    beside the bend axis fan from one unswept vertex and would cut across that ball."""
+    rows = round_corner_rows(tubes, first, last, pipe)
+    return rows & (not pipe.envelope)
+
+
+def round_corner_rows(tubes, first, last, pipe):
+    """(n,) bool: with ``corners="round"``, the corners of ``pipe`` (tube rows
+    ``first..last``) whose miter tip would stick out farther than the ring polygon's
+    own chordal deviation, ``stretch - 1 > 1 - cos(pi / sides)``: they become ball
+    joints; gentler corners keep their miter, which already holds the corner's ball."""
     if pipe.corners != "round":
         return np.zeros(last - first + 1, bool)
     return tubes.miter_stretch[first:last + 1] - 1.0 > 1.0 - np.cos(np.pi / pipe.sides)
@@ -1230,16 +1296,11 @@ def _joint(tubes, row, pipe):
     offsets = radius * (np.cos(a)[:, None] * _rotate(normal[None], axis, -turn / 2)
                         + np.sin(a)[:, None] * _rotate(binormal[None], axis, -turn / 2))
     steps = max(1, int(np.ceil(turn / (np.pi / 2) * pipe.cap_steps)))
-    if pipe.envelope:       # each vertex's arc about the axis circumscribed, as a cap's
-        step = turn / steps
-        angles = np.concatenate([[0.0], (np.arange(steps) + 0.5) * step, [turn]])
-        scale = np.concatenate([[1.0], np.full(steps, 1 / np.cos(step / 2)), [1.0]])
-    else:
-        angles, scale = turn * np.arange(steps + 1) / steps, np.ones(steps + 1)
+    angles = turn * np.arange(steps + 1) / steps
     along = np.outer(offsets @ axis, axis)
     rings = np.empty((len(angles), n, 3))
-    for k, (angle, grow) in enumerate(zip(angles.tolist(), scale.tolist())):
-        rings[k] = centre + along + grow * _rotate(offsets - along, axis, angle)
+    for k, angle in enumerate(angles.tolist()):
+        rings[k] = centre + along + _rotate(offsets - along, axis, angle)
     rings[:, ~outer] = miter[~outer]
     return outer, rings
 
@@ -1281,7 +1342,15 @@ def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
         lower = np.vstack([lower, np.roll(table[:1], -seam_shift, axis=1)])
     a, b = upper, np.roll(upper, -1, axis=1)
     c, d = lower, np.roll(lower, -1, axis=1)
-    faces = np.stack([np.stack([a, b, c], -1), np.stack([b, d, c], -1)], axis=2).reshape(-1, 3)
+    # a swept quad is not flat: split it along the diagonal that folds outwards, so
+    # both triangles lie outside the band between its rings (an envelope's joint must
+    # not cut into the ball it holds)
+    at = [vertices[v - first] for v in (a, b, c, d)]
+    fold = np.einsum("...i,...i->...", np.cross(at[1] - at[0], at[2] - at[0]), at[3] - at[0])
+    flip = (fold > 0)[..., None]
+    faces = np.stack([np.where(flip, np.stack([a, b, d], -1), np.stack([a, b, c], -1)),
+                      np.where(flip, np.stack([a, d, c], -1), np.stack([b, d, c], -1))],
+                     axis=2).reshape(-1, 3)
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
                   & (faces[:, 0] != faces[:, 2])]
     surface.add_vertices(len(vertices), lambda out: np.copyto(out, vertices))

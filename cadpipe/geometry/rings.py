@@ -65,6 +65,14 @@ class Tubes:
         self._frame_settings = dict(patent=patent, normals=normals, end_normals=end_normals,
                                     gentle=gentle)
 
+    def with_radii(self, ring_radii):
+        """These tubes with other ring radii: the same paths and frames (a bore's)."""
+        out = Tubes(self.lines, ring_radii, self.sides, self.miter_limit,
+                    **self._frame_settings)
+        if "_frames" in self.__dict__:
+            out.__dict__["_frames"] = self._frames
+        return out
+
     @cached_property
     def _frames(self):
         return frames(self.lines, self.lines.tangents, symmetry=2 * np.pi / self.sides,
