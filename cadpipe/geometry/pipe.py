@@ -973,16 +973,11 @@ def _segment_covers(pipe, segments):
     if not len(segments):
         return empty
     centres, radii = pipe.path.points, pipe.ring_radii
-    jointed = np.flatnonzero(joint_rows_of(pipe._tubes, 0, n - 1, pipe))
+    start_ring, end_ring, joints = laid_rings(pipe)
     tips = _miter_tips(pipe)
-    tips[jointed] = centres[jointed]
-    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
-        rings = pipe.rings()
-    start_ring, end_ring = rings.copy(), rings.copy()
     joint_units = []
-    for row in jointed.tolist():
-        outer, swept = _joint(pipe._tubes, row, pipe)
-        end_ring[row], start_ring[row] = swept[0], swept[-1]
+    for row, (outer, swept) in joints.items():
+        tips[row] = centres[row]
         reach_ = float(np.linalg.norm(swept[:, outer] - centres[row], axis=2).max())
         joint_units.append((centres[row], centres[row], reach_, reach_))
     a, b = np.asarray(segments), (np.asarray(segments) + 1) % n
@@ -1010,10 +1005,25 @@ def _segment_covers(pipe, segments):
                                        pipe.cap_styles[1])):
             cap = cap_axes(pipe._tubes, row, sign, pipe, style)
             if cap is not None and seg in set(np.asarray(segments).tolist()):
-                caps.append(_cap_piece(pipe, row, cap, [rings[row]]))
+                caps.append(_cap_piece(pipe, row, cap, [end_ring[row]]))
         if caps:
             units.append(_piece_covers(caps))
     return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+def laid_rings(pipe):
+    """The rings the plain tube's side is laid out on, as :meth:`Pipe.surface` lays it
+    out: ``(starts, ends, joints)``, (N, sides, 3) the ring each segment leaves from
+    and the one it arrives at (the ring itself, or at a ball joint the joint's last and
+    first ring), and ``{row: (outer, rings)}`` each ball joint (:func:`_joint`)."""
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
+    starts, ends = rings.copy(), rings
+    joints = {}
+    for row in np.flatnonzero(joint_rows_of(pipe._tubes, 0, len(pipe.path) - 1, pipe)).tolist():
+        joints[row] = _joint(pipe._tubes, row, pipe)
+        ends[row], starts[row] = joints[row][1][0], joints[row][1][-1]
+    return starts, ends, joints
 
 
 def _piece_covers(pieces):

@@ -25,7 +25,7 @@ from cadpipe.errors import InputError
 from cadpipe.geometry.bands import band_planes, wall_scales
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
-from cadpipe.geometry.pipe import Pipe, envelope_factor
+from cadpipe.geometry.pipe import Pipe, envelope_factor, laid_rings
 from cadpipe.geometry.splice import TRANSITIONS, chain_members
 
 END_STYLES = ("open", "closed")
@@ -70,18 +70,31 @@ def bore_scales(pipe, wall):
     the wall across the flat faces."""
     tubes = pipe._tubes
     count = len(pipe.path)
-    with np.errstate(invalid="ignore"):                 # a reversal's ring: swept anyway
-        rings = tubes.rings(slice(None), pipe.sides)
+    starts, ends, joints = laid_rings(pipe)
     first = np.arange(len(pipe.path.segments))
     second = (first + 1) % count
-    ahead = rings[second]
+    ahead = ends[second]
     if pipe.closed:                                     # the seam meets ring 0 turned
         ahead[-1] = np.roll(ahead[-1], -pipe.seam_shift, axis=0)
-    normals, offsets = band_planes(rings[first], ahead)
+    normals, offsets = band_planes(starts[first], ahead)
     scales = np.full(count, np.inf)
     for rows in (first, second):
         np.minimum.at(scales, rows, wall_scales(normals, offsets, tubes.axes[rows],
                                                 pipe.sides, wall))
+    # a ball joint's bore is its rings scaled about the corner: every vertex of them a
+    # wall inside the planes of the joint's own faces and of the bands beside it
+    centres = pipe.path.points
+    for row, (_, rings) in joints.items():
+        vertices = rings.reshape(-1, 3) - centres[row]
+        for normal, offset in (band_planes(rings[:-1], rings[1:]),
+                               (normals[[row - 1, row % len(first)]],
+                                offsets[[row - 1, row % len(first)]])):
+            normal, offset = normal.reshape(-1, 3), offset.reshape(-1)
+            reach = (normal @ vertices.T).max(axis=1)
+            room = offset - wall - normal @ centres[row]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                scales[row] = min(scales[row], float(np.where(reach > 0, room / reach,
+                                                              np.inf).min()))
     return scales
 
 
