@@ -6,7 +6,7 @@ pattern as :meth:`~cadpipe.geometry.loft.Surface.add_rings`). Where rings are mi
 tapered or twisted the faces lean and the quads bend, so the distance from the path to
 the surface, and from a bore to the outer surface, is measured on those very faces
 rather than from the rings' radii: an envelope grows its rings until every face clears
-the balls it must hold, a bore shrinks its rings until each of its vertices lies a wall
+the balls at its rings, a bore shrinks its rings until each of its vertices lies a wall
 inside every face plane of the outer bands it belongs to.
 """
 
@@ -33,9 +33,7 @@ def band_planes(rings_a, rings_b, offset=0.0):
         ``normals . x = offsets`` on each face; a degenerate face has offset ``inf``
         (no constraint).
     """
-    na, nb = rings_a.shape[1], rings_b.shape[1]
-    pattern = _zipper_pattern(na, nb, offset)
-    tri = np.concatenate([rings_a, rings_b], axis=1)[:, pattern]          # (B, F, 3, 3)
+    tri = band_triangles(rings_a, rings_b, offset)
     normal = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
     size = np.linalg.norm(normal, axis=2)
     flat = size > 0
@@ -43,10 +41,36 @@ def band_planes(rings_a, rings_b, offset=0.0):
     return normal, np.where(flat, np.einsum("bfc,bfc->bf", normal, tri[:, :, 0]), np.inf)
 
 
-def clearance(normals, offsets, points):
-    """(B,) least distance, inside, from each band's point ``points`` (B, 3) to the
-    planes of its faces."""
-    return (offsets - np.einsum("bfc,bc->bf", normals, points)).min(axis=1)
+def band_triangles(rings_a, rings_b, offset=0.0):
+    """(B, na + nb, 3, 3) the faces between ring pairs, as :func:`band_planes` has them."""
+    pattern = _zipper_pattern(rings_a.shape[1], rings_b.shape[1], offset)
+    return np.concatenate([rings_a, rings_b], axis=1)[:, pattern]
+
+
+def clearance(triangles, points):
+    """(B,) least distance from each band's point ``points`` (B, 3) to its faces
+    ``triangles`` (B, F, 3, 3): to the face's plane where the point's foot falls inside
+    it, else to its nearest edge."""
+    p = points[:, None]
+    a, b, c = triangles[:, :, 0], triangles[:, :, 1], triangles[:, :, 2]
+    normal = np.cross(b - a, c - a)
+    area = np.einsum("bfc,bfc->bf", normal, normal)
+    inside = area > 0
+    for u, v in ((a, b), (b, c), (c, a)):       # the foot on the inner side of each edge
+        inside &= np.einsum("bfc,bfc->bf", np.cross(v - u, p - u), normal) >= 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        plane = np.abs(np.einsum("bfc,bfc->bf", p - a, normal)) / np.sqrt(area)
+    edges = np.minimum.reduce([_to_edge(p, u, v) for u, v in ((a, b), (b, c), (c, a))])
+    return np.where(inside, plane, edges).min(axis=1)
+
+
+def _to_edge(p, u, v):
+    """(B, F) distance from points ``p`` (B, 1, 3) to segments ``u``-``v`` (B, F, 3)."""
+    d = v - u
+    size = np.einsum("bfc,bfc->bf", d, d)
+    t = np.clip(np.einsum("bfc,bfc->bf", p - u, d) / np.where(size > 0, size, 1.0), 0.0, 1.0)
+    off = p - u - t[..., None] * d
+    return np.sqrt(np.einsum("bfc,bfc->bf", off, off))
 
 
 def support(normals, axes, sides):

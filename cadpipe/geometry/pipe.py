@@ -21,10 +21,10 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
-from cadpipe.geometry.bands import band_planes, clearance
+from cadpipe.geometry.bands import band_triangles, clearance
 from cadpipe.geometry.cover import round_cone_covers
-from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, piece_meets_units,
-                                        reach, segment_distance)
+from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, local_folds,
+                                        piece_meets_units, reach, segment_distance)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
 from cadpipe.geometry.rings import Tubes, ring_basis, square_rings
@@ -57,6 +57,21 @@ def _filleted_radii(path, bend, radii, filleted):
         return radii[source]
     along = filleted.arc_length / filleted.length * path.length
     return np.interp(along, path.arc_length, radii)
+
+
+def _cone_section(r_other, r_here, length):
+    """Radius, at the ring of ``r_here``, of the round cone ``conv(B(other, r_other),
+    B(here, r_here))`` ``length`` apart (its section in the plane square to the axis):
+    ``r_here`` at the wide end; at the narrow end the side line, ``r_here / cos(a)``
+    with ``sin a = (r_other - r_here) / length``, where that line already runs there,
+    else the wide ball's own section ``sqrt(r_other**2 - length**2)``."""
+    sine = np.clip((r_other - r_here) / length, 0.0, 1.0)
+    cosine = np.sqrt(1.0 - sine ** 2)
+    on_line = length >= r_other * sine                 # past the side's tangent point
+    with np.errstate(divide="ignore", invalid="ignore"):
+        line = r_here / cosine
+    ball = np.sqrt(np.maximum(r_other ** 2 - length ** 2, 0.0))
+    return np.where(sine <= 0, r_here, np.where(on_line, line, np.maximum(ball, r_here)))
 
 
 def envelope_factor(sides):
@@ -272,32 +287,38 @@ class Pipe:
         """(N,) distance of ring vertices from the axis (before miter stretch).
 
         The radius itself, or with ``envelope=True`` the circumradius of the polygon
-        whose sides touch a circle ``1 / cos(a)`` larger than the radius, ``a`` the
-        steeper taper of the segments beside the ring (``sin a = |dr| / length``): the
-        round cone a tapered segment's balls sweep is that much wider than the circle
-        of the ball at its end.
+        whose sides touch the widest section, in the ring's plane, of the round cones
+        the balls of the segments beside it sweep: the ball's own radius, or where the
+        segment tapers by ``a`` (``sin a = |dr| / length``) the cone's side line,
+        ``r / cos(a)`` at the narrow end (while the cone's side starts before that end;
+        else the wide ball's own section there). Then the faces are checked against
+        the balls, and grown where a mitred ring on a taper or a twist leans them in
+        (:meth:`_envelope_growth`).
         """
         if not self.envelope:
             return self.radii
         r = self.radii
+        count = len(self.path.segments)
         lengths = self.path.segment_lengths
-        ahead = np.roll(r, -1)[:len(lengths)]
-        sine = np.minimum(np.abs(ahead - r[:len(lengths)]) / lengths, 1.0 - 1e-9)
-        slope = 1.0 / np.sqrt(1.0 - sine ** 2)
-        before = np.roll(slope, 1) if self.closed else np.concatenate([slope[:1], slope])
-        after = slope if self.closed else np.concatenate([slope, slope[-1:]])
-        start = (r * envelope_factor(self.sides) * np.maximum(before, after)
+        near, far = r[:count], np.roll(r, -1)[:count]
+        section = np.stack([_cone_section(far, near, lengths), _cone_section(near, far, lengths)])
+        widest = np.ones((2, len(r)))
+        widest[0, :count] = section[0] / near                     # each segment's start
+        widest[1, (np.arange(count) + 1) % len(r)] = section[1] / far
+        start = (r * envelope_factor(self.sides) * widest.max(axis=0)
                  / np.cos(self._twist_bound / 2))
         return _frozen(start * self._envelope_growth(start))
 
     def _envelope_growth(self, start):
         """(N,) how much the envelope's rings (``start``: radii from the taper and twist
         alone) must grow for every face to clear the balls it holds. A band's faces
-        must lie at least ``r`` from the ball centres at both its rings (then from every
-        ball between them: both distances are linear along the segment); a mitred ring
+        must lie at least ``r`` from the ball centres at both its rings (the balls
+        between them are held by the cones' sections, see :attr:`ring_radii`); a mitred ring
         on a taper leans its faces towards the corner, a twisted band bends its quads
         in. Each band short of that grows both its rings, until none is
-        (:data:`ENVELOPE_PASSES` at most)."""
+        (:data:`ENVELOPE_PASSES` at most). Distances are to the faces themselves,
+        not their planes: a face that widens away from a ring leans its plane into
+        that ring's ball, but not itself."""
         r = self.radii
         tubes = tubes_of([self], [start])
         centres = self.path.points
@@ -310,12 +331,14 @@ class Pipe:
             last[-1] = np.roll(last[-1], -tubes.seam_shift[0], axis=0)
         grow = np.ones(len(r))
         for _ in range(ENVELOPE_PASSES):
-            normals, planes = band_planes(centres[first, None] + grow[first, None, None]
-                                          * offsets[first], centres[second, None]
-                                          + grow[second, None, None] * last)
-            short = np.maximum(r[first] / clearance(normals, planes, centres[first]),
-                               r[second] / clearance(normals, planes, centres[second]))
-            short = np.where(np.isfinite(short) & (short > 0), short, 1.0)
+            faces = band_triangles(centres[first, None] + grow[first, None, None]
+                                   * offsets[first], centres[second, None]
+                                   + grow[second, None, None] * last)
+            short = np.maximum(r[first] / clearance(faces, centres[first]),
+                               r[second] / clearance(faces, centres[second]))
+            # a band whose rings meet inside the tube is swept (its hull holds it)
+            folded = local_folds(tubes.with_radii(start * grow))[0][first]
+            short = np.where(np.isfinite(short) & (short > 0) & ~folded, short, 1.0)
             if (short <= 1 + 1e-12).all():
                 break
             need = np.ones(len(r))
