@@ -286,8 +286,9 @@ class Pipe:
     def ring_radii(self) -> np.ndarray:
         """(N,) distance of ring vertices from the axis (before miter stretch).
 
-        The radius itself, or with ``envelope=True`` the circumradius of the polygon
-        whose sides touch the widest section, in the ring's plane, of the round cones
+        The radius itself, or with ``envelope=True`` (from :attr:`envelope_radii`) the
+        circumradius of the polygon whose sides touch the widest section, in the ring's
+        plane, of the round cones
         the balls of the segments beside it sweep: the ball's own radius, or where the
         segment tapers by ``a`` (``sin a = |dr| / length``) the cone's side line,
         ``r / cos(a)`` at the narrow end (while the cone's side starts before that end;
@@ -297,7 +298,7 @@ class Pipe:
         """
         if not self.envelope:
             return self.radii
-        r = self.radii
+        r = self.envelope_radii
         count = len(self.path.segments)
         lengths = self.path.segment_lengths
         near, far = r[:count], np.roll(r, -1)[:count]
@@ -309,6 +310,24 @@ class Pipe:
                  / np.cos(self._twist_bound / 2))
         return _frozen(start * self._envelope_growth(start))
 
+    @cached_property
+    def envelope_radii(self) -> np.ndarray:
+        """(N,) the radii an ``envelope=True`` pipe holds balls of: :attr:`radii`,
+        raised where they change along the path by more than
+        :data:`ENVELOPE_SLOPE` times the arc length (``max_i r_i - slope |s_i - s|``).
+        A ball whose radius outruns its neighbours by more reaches past their rings
+        and caps; the raised balls hold it, and their round cones are what the rings
+        follow."""
+        s, r = self.path.arc_length, self.radii
+        if self.closed:                           # around the loop both ways: three laps
+            s = np.concatenate([s - self.path.length, s, s + self.path.length])
+            r = np.tile(r, 3)
+        ahead = np.maximum.accumulate(r + ENVELOPE_SLOPE * s) - ENVELOPE_SLOPE * s
+        behind = (np.maximum.accumulate((r - ENVELOPE_SLOPE * s)[::-1])[::-1]
+                  + ENVELOPE_SLOPE * s)
+        out = np.maximum(ahead, behind)
+        return _frozen(out[len(self.path):2 * len(self.path)] if self.closed else out)
+
     def _envelope_growth(self, start):
         """(N,) how much the envelope's rings (``start``: radii from the taper and twist
         alone) must grow for every face to clear the balls it holds. A band's faces
@@ -319,7 +338,7 @@ class Pipe:
         (:data:`ENVELOPE_PASSES` at most). Distances are to the faces themselves,
         not their planes: a face that widens away from a ring leans its plane into
         that ring's ball, but not itself."""
-        r = self.radii
+        r = self.envelope_radii
         tubes = tubes_of([self], [start])
         centres = self.path.points
         first = np.arange(len(self.path.segments))
@@ -708,7 +727,7 @@ class Pipe:
         low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
         middle = 0.5 * (low + high)
         pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE, capped=ends)
-        solids = [manifold3d.Manifold.hull_points(p - middle) for p in pieces]
+        solids = [hull_solid(p - middle) for p in pieces]
         if not merged.all():
             for a, b in _runs(~merged, self.closed):
                 piece = self._piece(a, b, ends)
@@ -754,15 +773,36 @@ class Pipe:
         return Mesh.trusted(vertices, faces)
 
 
+#: most an envelope's radii change per unit of arc length (see Pipe.envelope_radii)
+ENVELOPE_SLOPE = 0.5
 #: most passes of growing an envelope's rings until its faces clear its balls
 ENVELOPE_PASSES = 8
 #: merged units reach this fraction of the ring radius into their neighbours (see _units)
 TONGUE = 1e-3
 
 
-def welded_solid(solid, **kwargs):
-    """The :class:`Mesh` of a manifold3d ``solid``, with no two vertices closer than
-    float32 can tell apart at its size.
+def hull_solid(points, name="hull", original_id=None):
+    """The convex hull of ``points`` (K, 3) as a manifold3d solid, triangulated by qhull.
+
+    manifold3d's own ``hull_points`` leaves folded triangles where many points are
+    coplanar (two parallel rings, two equal balls side by side: 12 crossing face pairs
+    on a splice's ball joint); qhull's triangulation of a coplanar facet is flat."""
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(points)
+    faces = hull.simplices.copy()
+    tri = points[faces]
+    inward = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                       hull.equations[:, :3]) < 0
+    faces[inward] = faces[inward][:, ::-1]
+    used, local = np.unique(faces, return_inverse=True)
+    return Mesh.trusted(points[used], local.reshape(-1, 3)).to_manifold(name, original_id)
+
+
+def welded_solid(solid, part_of_id=None, **kwargs):
+    """The :class:`Mesh` of a manifold3d ``solid`` (faces labelled by ``part_of_id`` as
+    :meth:`Mesh.from_manifold` does), with no two vertices closer than float32 can tell
+    apart at its size.
 
     A union leaves clusters of vertices where its pieces meet at grazing angles; STL,
     3MF, OBJ and PLY files (float32) would merge them, into edges shared by more than
@@ -780,12 +820,12 @@ def welded_solid(solid, **kwargs):
     low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
     ulp = 2.0 ** -23 * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
     volume = solid.volume()
-    plain = Mesh.from_manifold(solid, **kwargs)
+    plain = Mesh.from_manifold(solid, part_of_id, **kwargs)
     if not len(cKDTree(plain.vertices).query_pairs(FLOAT32_CLOSE * ulp,
                                                    output_type="ndarray")):
         return plain                                 # nothing a float32 file would merge
     for ulps in (FLOAT32_WELD, 4, FLOAT32_CLOSE):
-        welded = _weld(plain, ulps * ulp, kwargs)
+        welded = _weld(plain, ulps * ulp)
         if welded is not None and abs(welded[0].volume - volume) <= WELD_VOLUME * volume \
                 and not _crossings_near(*welded, ulps * ulp):
             return welded[0]
@@ -810,9 +850,10 @@ def _crossings_near(mesh, moved, shift):
     return bool(len(self_intersections(Mesh.trusted(mesh.vertices, mesh.faces[near]))))
 
 
-def _weld(mesh, tol, kwargs):
-    """``mesh`` with its vertex clusters closer than ``tol`` merged and (F,) which of its
-    faces moved, or None if that does not leave a closed, oriented surface."""
+def _weld(mesh, tol):
+    """``mesh`` with its vertex clusters closer than ``tol`` merged (its parts and
+    attributes kept) and (F,) which of its faces moved, or None if that does not leave
+    a closed, oriented surface."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -837,7 +878,10 @@ def _weld(mesh, tol, kwargs):
     faces = faces[single]
     moved = (np.bincount(label, minlength=count) > 1)[faces].any(axis=1)
     used, faces = np.unique(faces, return_inverse=True)
-    welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
+    part = None if mesh.face_part is None else mesh.face_part[keep][single]
+    welded = Mesh(merged[used], faces.reshape(-1, 3), face_part=part,
+                  part_names=mesh.part_names if part is not None else (),
+                  attributes=mesh.attributes)
     return (welded, moved) if len(faces) and welded.is_oriented else None
 
 
@@ -946,7 +990,7 @@ def _unit_pieces(pipe, segments, joints, overlap=0.0, tongue=0.0, capped=(True, 
                              float(radii[b]), tips[a], tips[b]))
     # an envelope's ball circumscribes the ball of the path's radius (its rings, those
     # of the polygon circumscribing that ball's sections, are wider)
-    ball_radii = pipe.radii if pipe.envelope else radii
+    ball_radii = pipe.envelope_radii if pipe.envelope else radii
     for k in joints.tolist():
         pieces.append(_Piece(_ball(centres[k], float(ball_radii[k])), centres[k], centres[k],
                              0.0, 0.0, centres[k], centres[k]))
@@ -1165,7 +1209,7 @@ def _cap_reach(pipe, style, sign):
 
 
 def _end_radius(pipe, sign):
-    return float(pipe.radii[0 if sign < 0 else -1])
+    return float(pipe.envelope_radii[0 if sign < 0 else -1])
 
 
 def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None,

@@ -25,7 +25,7 @@ from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Polylines
-from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, tubes_of
+from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, hull_solid, tubes_of, welded_solid
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import Tubes
 
@@ -597,7 +597,8 @@ def _ball_joint(tubes, b, a):
 def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pieces=None):
     """The union through manifold3d of the closed pieces of a surface (its faces by part)
     and of the convex hulls of ``hulls`` (point sets, parts ``hull_parts``), faces
-    still labelled by the piece they came from. ``pieces`` ({part: Mesh}) replaces
+    still labelled by the piece they came from, welded at float32 precision as a
+    swept pipe is (:func:`~cadpipe.geometry.pipe.welded_solid`). ``pieces`` ({part: Mesh}) replaces
     those parts' faces by a closed mesh of their own (a pipe's swept solid)."""
     import manifold3d
 
@@ -614,8 +615,6 @@ def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pie
         used, local = np.unique(faces[order[bounds[k]:bounds[k + 1]]], return_inverse=True)
         solids.append(Mesh.trusted(vertices[used], local.reshape(-1, 3))
                       .to_manifold(names[k], ids[k]))
-    for points, k in zip(hulls, hull_parts):
-        hull = Mesh.from_manifold(manifold3d.Manifold.hull_points(points))
-        solids.append(hull.to_manifold(names[k], ids[k]))
+    solids += [hull_solid(points, names[k], ids[k]) for points, k in zip(hulls, hull_parts)]
     solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
-    return Mesh.from_manifold(solid, dict(zip(ids, names)), attributes=attributes)
+    return welded_solid(solid, dict(zip(ids, names)), attributes=attributes)

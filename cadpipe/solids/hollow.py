@@ -23,6 +23,7 @@ from cadpipe._validate import as_choice, as_flag, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
 from cadpipe.geometry.bands import band_planes, wall_scales
+from cadpipe.geometry.clearance import local_folds
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe, envelope_factor, laid_rings
@@ -77,6 +78,10 @@ def bore_scales(pipe, wall):
     if pipe.closed:                                     # the seam meets ring 0 turned
         ahead[-1] = np.roll(ahead[-1], -pipe.seam_shift, axis=0)
     normals, offsets = band_planes(starts[first], ahead)
+    # bands that fold, or end at a corner beyond the miter limit, are built from their
+    # convex units (the swept solid): their ring planes say nothing there
+    swept = local_folds(tubes)[0][first] | tubes.over_limit[first] | tubes.over_limit[second]
+    offsets = np.where(swept[:, None], np.inf, offsets)
     scales = np.full(count, np.inf)
     for rows in (first, second):
         np.minimum.at(scales, rows, wall_scales(normals, offsets, tubes.axes[rows],
@@ -95,7 +100,9 @@ def bore_scales(pipe, wall):
             with np.errstate(divide="ignore", invalid="ignore"):
                 scales[row] = min(scales[row], float(np.where(reach > 0, room / reach,
                                                               np.inf).min()))
-    return scales
+    # a ring only of swept bands: the wall across a straight duct's faces
+    plain = 1 - wall * envelope_factor(pipe.sides) / tubes.ring_radii
+    return np.where(np.isfinite(scales), scales, plain)
 
 
 def bore(pipe, wall, start="open", end="open"):
