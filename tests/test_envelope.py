@@ -214,7 +214,9 @@ options = st.fixed_dictionaries({
     "caps": st.sampled_from(["flat", "round", ("flat", "round")]),
     "envelope": st.booleans(),
     "corners": st.sampled_from(["miter", "round"]),
-    "frame": st.sampled_from(["rmf", "rmf", "rmf", "patent"]),
+    # the patent frame refuses where OP x L turns the rings too far at a corner (a
+    # documented refusal of this frame, not of the path): drawn less often
+    "frame": st.sampled_from(["rmf"] * 7 + ["patent"]),
 })
 
 

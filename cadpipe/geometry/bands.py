@@ -84,10 +84,17 @@ def support(normals, axes, sides):
     return np.hypot(u, v) * np.cos(np.minimum(off, step - off))
 
 
-def wall_scales(normals, offsets, axes, sides, wall):
+def wall_scales(normals, offsets, axes, sides, wall, centres):
     """(B,) largest scale of each ring about its centre that keeps all its vertices
     ``wall`` inside every face plane of a band it belongs to (``normals``,
-    ``offsets`` of those faces, (B, F, 3) and (B, F))."""
+    ``offsets`` of those faces, (B, F, 3) and (B, F)).
+
+    A face whose plane passes within ``wall`` of either of its band's ring centres
+    (``centres``, (B, 2, 3)) stands across the tube rather than along it (a stitch
+    between rings that lean apart): its plane says nothing of the wall, and it is left
+    out."""
+    inside = offsets[:, None] - np.einsum("bfc,bkc->bkf", normals, centres)
+    offsets = np.where((inside > wall).all(axis=1), offsets, np.inf)
     room = offsets - wall - np.einsum("bfc,bc->bf", normals, axes[:, 2])
     reach = support(normals, axes, sides)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -102,7 +102,9 @@ class Pipe:
         False: ring vertices on the circle (the polygon lies inside the round tube).
         True: a conservative safety envelope: the solid contains every ball of radius
         ``r(s)`` centred on the path (``r`` interpolated linearly between points),
-        through tapers, corners and caps (a flat cap then lies ``r`` beyond the end).
+        through tapers, corners and caps (a flat cap then lies ``r`` beyond the end);
+        radii that change faster than half the arc length are raised first (see
+        :attr:`envelope_radii`).
     tolerance : float, optional
         Chordal tolerance used to choose ``sides``.
     frame : {"rmf", "patent"}
@@ -119,9 +121,10 @@ class Pipe:
         Polyline corners as miter joints (the rings meet in the bisector plane), or
         ball joints: the outside of each corner is the sphere of the corner's radius
         about the corner point, so the corner point keeps the full radius and no miter
-        tip sticks out (the path itself is not rounded). Gentle corners, and every
-        corner of an ``envelope=True`` pipe, keep their miter joint, which holds the
-        corner's ball too.
+        tip sticks out (the path itself is not rounded). With ``envelope=True`` the
+        ball joint is a polyhedron circumscribing the ball of the corner's radius,
+        united with the segments cut square there (conservative). Gentle corners keep
+        their miter joint, which holds the corner's ball too.
     bend_radius : float, optional
         Deprecated: rounds the path itself with arcs of this radius (the pipe then
         follows :meth:`Path.fillet`'s path); pass ``path.fillet(bend_radius)[0]``.
@@ -645,15 +648,13 @@ class Pipe:
         miter tip; per ball (a joint, a corner beyond the miter limit) and round cap a
         ball; per envelope flat cap a capsule to the cap's face.
 
-        The chain contains the mesh. It exceeds it, beyond flat caps, by up to the
-        ring radius ``rho`` (its units end in balls), and elsewhere by at most
-        ``rho * (1 - cos(pi / sides))`` (the polygon's own chordal deviation) plus
-        what the pieces stick out of their nominal radii: up to
-        :data:`~cadpipe.geometry.clearance.BALL_REACH` ``- 1`` (4 %) of ``rho`` at a
-        swept ball, the sweep's ``1 / cos(D / 2) - 1`` at an envelope's ball joint,
-        and, where a tapered segment meets a mitred corner, its taper times the
-        corner's setback ``rho * tan(turn / 2)``
-        (:data:`COLLISION_EXCESS` states the whole bound per unit).
+        The chain contains the mesh (every vertex, and every face: each piece is convex
+        and inside its units). Each unit's axis lies inside the mesh, so the chain
+        exceeds the mesh by at most that unit's radius (the ring radius ``rho``, grown
+        where a piece sticks out of it): that far only past flat caps, where the units
+        end in balls; elsewhere by the polygon's chordal deviation ``rho (1 - cos(pi /
+        sides))`` along straight stretches, about ``0.3 rho`` at the outside of a
+        right-angled miter, 4 % of ``rho`` at a swept ball.
 
         Returns
         -------

@@ -72,10 +72,11 @@ def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
     Pieces that cross each other (a pipe running through another, a joint) are
     united through manifold3d, as a single pipe that overlaps itself becomes its
     swept solid: the user asked for one solid along these paths, and their union is
-    it. Pieces are checked against each other through boxes of pieces, then of
-    triangles, so a clean chain is returned stitched as it is. A chain with a pipe
-    made with ``strict=True`` refuses instead, with a :class:`GeometryError` naming
-    the pieces.
+    it. A pipe that overlaps itself is its swept solid in the chain too (cut flat
+    where a transition goes on). Pieces are checked against each other through boxes
+    of pieces, then of segments, so a clean chain is returned stitched as it is. A
+    chain with a pipe made with ``strict=True`` refuses instead, with a
+    :class:`GeometryError` naming the pieces (or the pipe that overlaps itself).
 
     All pipes are built as one batch, and all transitions as another
     (:class:`~cadpipe.geometry.rings.Tubes`): a chain of a thousand pipes costs a few numpy
@@ -389,9 +390,10 @@ def bore_of_chain(tubes, bridges, before, after, mode, wall):
         for k, ((ta, ra, na), (tb, rb, nb)) in enumerate(zip(chain[:-1], chain[1:])):
             offset = -bridges.seam_shift[t] * nb / n3[t] if k == len(chain) - 2 else 0.0
             normals, offsets = band_planes(ta.rings([ra], na), tb.rings([rb], nb), offset)
+            centres = np.stack([ta.axes[ra, 2], tb.axes[rb, 2]])[None]
             for j, (tube, row, n) in ((k, chain[k]), (k + 1, chain[k + 1])):
                 scale[j] = min(scale[j], wall_scales(normals, offsets, tube.axes[[row]], n,
-                                                     wall)[0])
+                                                     wall, centres)[0])
         pipe_scales[b, 1] = min(pipe_scales[b, 1], scale[0])
         pipe_scales[a, 0] = min(pipe_scales[a, 0], scale[-1])
         ring_scales[first[t]:last[t]] = scale[1:-1]

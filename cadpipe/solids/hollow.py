@@ -83,9 +83,10 @@ def bore_scales(pipe, wall):
     swept = local_folds(tubes)[0][first] | tubes.over_limit[first] | tubes.over_limit[second]
     offsets = np.where(swept[:, None], np.inf, offsets)
     scales = np.full(count, np.inf)
+    centres = np.stack([tubes.axes[first, 2], tubes.axes[second, 2]], axis=1)
     for rows in (first, second):
         np.minimum.at(scales, rows, wall_scales(normals, offsets, tubes.axes[rows],
-                                                pipe.sides, wall))
+                                                pipe.sides, wall, centres))
     # a ball joint's bore is its rings scaled about the corner: every vertex of them a
     # wall inside the planes of the joint's own faces and of the bands beside it
     centres = pipe.path.points
