@@ -9,7 +9,7 @@ In one process, interleaved (A B A B, medians of wall and CPU seconds):
 - cadpipe against trimesh's ``sweep_polygon`` at 1k points;
 - the cost of a swept pipe against a clean one: the 1k point helix with and without
   a last leg that crosses it (the union then merges that stretch only);
-- a yes/no against the full answer: a 30k point coil whose turns overlap everywhere,
+- a yes/no against the full answer: a 3k point coil whose turns overlap everywhere,
   ``Pipe(strict=True).mesh()`` (refused at the first meeting units) against
   ``Pipe.folds()`` (every finding).
 
@@ -135,7 +135,7 @@ def main():
             f"{wall / costs['clean'][0]:.1f}x clean wall, {cpu / costs['clean'][1]:.1f}x cpu; "
             f"merged {merged}")
 
-    t = np.linspace(0, 2 * np.pi * 30, 30_000)
+    t = np.linspace(0, 2 * np.pi * 3, 3_000)
     coil = np.c_[np.cos(t), np.sin(t), 0.05 * t / (2 * np.pi)]          # turns 0.05 apart
 
     def refused():
@@ -150,7 +150,7 @@ def main():
         "yes/no: strict mesh() refused": refused}, args.repeat)
     full = answers["full answer: folds()"]
     for name, (wall, cpu) in answers.items():
-        row(f"coil 30k, overlapping, {name}", wall, cpu,
+        row(f"coil 3k, overlapping, {name}", wall, cpu,
             "" if name.startswith("full") else
             f"{full[0] / wall:.1f}x faster wall, {full[1] / cpu:.1f}x cpu")
 

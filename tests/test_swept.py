@@ -125,7 +125,7 @@ def test_strict_search_stops_at_its_first_meeting_units(monkeypatch):
     meet, instead of testing every candidate pair of a pipe that overlaps everywhere."""
     from cadpipe.geometry import clearance
 
-    t = np.linspace(0, 2 * np.pi * 30, 30_000)
+    t = np.linspace(0, 2 * np.pi * 3, 3_000)
     coil = np.c_[np.cos(t), np.sin(t), 0.05 * t / (2 * np.pi)]      # turns 0.05 apart
     tested = []
     separated = clearance._separated

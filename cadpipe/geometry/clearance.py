@@ -294,9 +294,10 @@ def distant_pairs(tubes, first_only=False):
     comes back to itself: their capsules overlap and so do their convex units.
 
     The tree is walked level by level, a frontier of node pairs at a time; a frontier
-    larger than :data:`FRONTIER` is split and its parts walked down one after the other
-    (depth first), so memory stays bounded and, with ``first_only``, the walk stops at
-    the first pair of units that meet (all a yes/no needs).
+    larger than :data:`FRONTIER` (:data:`FIRST_FRONTIER` for a yes/no) is split and its
+    parts walked down one after the other (depth first), so memory stays bounded and,
+    with ``first_only``, the walk stops at the first pair of units that meet (all a
+    yes/no needs).
 
     Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``, and the
     (K,) sorted segment columns of all of them (the stretches a union must merge).
@@ -323,8 +324,9 @@ def distant_pairs(tubes, first_only=False):
             continue
         a, b = _children(tree, level, a, b)
         a, b = _kept(tree, groups, turning, total, level - 1, a, b)
-        parts = range(0, len(a), FRONTIER)
-        stack.extend((level - 1, a[k:k + FRONTIER], b[k:k + FRONTIER]) for k in reversed(parts))
+        size = FIRST_FRONTIER if first_only else FRONTIER
+        stack.extend((level - 1, a[k:k + size], b[k:k + size])
+                     for k in reversed(range(0, len(a), size)))
     i, j, dist = (np.concatenate(x) for x in zip(*found)) if found else (empty, empty,
                                                                           np.empty(0))
     order = np.lexsort((j, i))
@@ -332,8 +334,10 @@ def distant_pairs(tubes, first_only=False):
     return i, j, dist, np.unique(np.concatenate([i, j]))
 
 
-#: node pairs walked down at once by :func:`distant_pairs` (bounds its memory)
+#: node pairs walked down at once by :func:`distant_pairs` (bounds its memory); fewer
+#: for a yes/no, which the first pair of meeting units settles
 FRONTIER = 1 << 16
+FIRST_FRONTIER = 1 << 10
 
 
 def _children(tree, level, a, b):

@@ -496,7 +496,10 @@ class Pipe:
     def _cap_folds(self, ends):
         empty = ((), np.empty(0, np.int64))
         count = len(self.path.segments)
-        if self.closed or count < 2:
+        # only a round cap, or an envelope's flat one, reaches past its end ring
+        reaching = [e and (style == "round" or self.envelope)
+                    for e, style in zip(ends, self.cap_styles)]
+        if self.closed or count < 2 or not any(reaching):
             return empty
         tubes, lines = self._tubes, self._tubes.lines
         r = reach(tubes)
