@@ -390,6 +390,27 @@ def test_the_collision_model_contains_every_pipe_mesh():
     assert_builds_mostly(run, 30, "collision models", SETTINGS)
 
 
+@pytest.mark.parametrize("pipe", [
+    Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0.3], [2, 1.2, 0.5]], [0.1, 0.14, 0.08, 0.1], 6,
+         end_normal=[0, 0, 1]),
+    Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0.3]], 0.1, 5, end_normal=[0, 1, 1], envelope=True,
+         caps="round"),
+    Pipe(Path(np.c_[np.cos(np.linspace(0, 6, 9)), np.sin(np.linspace(0, 6, 9)),
+                    0.1 * np.sin(np.linspace(0, 12, 9))], closed=True), 0.1, 7,
+         envelope=True),
+    Pipe(Path([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0.2]], closed=True), 0.08, 4,
+         corners="round"),
+], ids=["end-normal-taper", "end-normal-envelope", "closed-envelope", "closed-round"])
+def test_the_collision_model_contains_twisted_and_closed_pipes(pipe):
+    from cadpipe.collision.capsules import Chain
+
+    mesh = pipe.mesh()
+    chain = Chain.of_units(*pipe.collision_units())
+    points = np.concatenate([mesh.vertices, trimesh.sample.sample_surface(
+        mesh.to_trimesh(), 5000, seed=0)[0]])
+    assert chain.signed_distance(points).max() <= 1e-12
+
+
 def _within(tm, points, scale):
     """Whether points outside ``tm`` (by its ray test) lie on its surface after all."""
     outside = points[~tm.contains(points)]

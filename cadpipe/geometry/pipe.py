@@ -637,7 +637,7 @@ class Pipe:
         neighbouring units overlap instead of merely touching (booleans treat touching
         solids as apart). The swept solid is built from these same pieces.
         """
-        rows = np.flatnonzero(joint_rows_of(self._tubes, 0, len(self.path) - 1, self))
+        rows = np.flatnonzero(round_corner_rows(self._tubes, 0, len(self.path) - 1, self))
         return _units(self, np.arange(len(self.path.segments)), rows, overlap=overlap)
 
     def collision_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
