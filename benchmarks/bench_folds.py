@@ -8,7 +8,10 @@ In one process, interleaved (A B A B, medians of wall and CPU seconds):
   variable-radius case);
 - cadpipe against trimesh's ``sweep_polygon`` at 1k points;
 - the cost of a swept pipe against a clean one: the 1k point helix with and without
-  a last leg that crosses it (the union then merges that stretch only).
+  a last leg that crosses it (the union then merges that stretch only);
+- a yes/no against the full answer: a 3k point coil whose turns overlap everywhere,
+  ``Pipe(strict=True).mesh()`` (refused at the first meeting units) against
+  ``Pipe.folds()`` (every finding).
 
 With ``--before DIR`` (a checkout of the code to compare, e.g. ``git archive main``
 unpacked there) the helix 100k mesh is also timed in child processes, this tree and
@@ -131,6 +134,25 @@ def main():
             "" if name == "clean" else
             f"{wall / costs['clean'][0]:.1f}x clean wall, {cpu / costs['clean'][1]:.1f}x cpu; "
             f"merged {merged}")
+
+    t = np.linspace(0, 2 * np.pi * 3, 3_000)
+    coil = np.c_[np.cos(t), np.sin(t), 0.05 * t / (2 * np.pi)]          # turns 0.05 apart
+
+    def refused():
+        try:
+            cadpipe.Pipe(coil, RADIUS, sides=SIDES, strict=True).mesh()
+        except cadpipe.GeometryError:
+            return
+        raise AssertionError("the coil overlaps itself")
+
+    answers = interleaved({
+        "full answer: folds()": lambda: cadpipe.Pipe(coil, RADIUS, sides=SIDES).folds(),
+        "yes/no: strict mesh() refused": refused}, args.repeat)
+    full = answers["full answer: folds()"]
+    for name, (wall, cpu) in answers.items():
+        row(f"coil 3k, overlapping, {name}", wall, cpu,
+            "" if name.startswith("full") else
+            f"{full[0] / wall:.1f}x faster wall, {full[1] / cpu:.1f}x cpu")
 
     if args.before:
         here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

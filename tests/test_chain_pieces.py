@@ -52,6 +52,56 @@ def test_third_pipe_crossing_the_first_is_united_and_reported(transition):
     assert covers(mesh, [[5, 0, 0], [5, -5, 0], [5, 5, 0], [2, 0, 0]], 0.6)
 
 
+CROSSING = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [1, 2, 0], [1, -1, 0.1]])
+
+
+@pytest.mark.parametrize("options", [{}, {"envelope": True}, {"caps": "round"},
+                                     {"corners": "round"}])
+@pytest.mark.parametrize("transition", ["lcm", "merge"])
+def test_a_pipe_that_overlaps_itself_in_a_splice_is_its_swept_solid(options, transition):
+    """'splice: pipe 0 intersects itself' was raised where a lone Pipe builds its swept
+    solid; in a chain the pipe is that same solid, cut flat where a transition goes on."""
+    first = Pipe(CROSSING, 0.2, **options)
+    mesh = splice(first, Pipe([[1, -3, 0.1], [1, -5, 0.1]], 0.2, 6, **options),
+                  transition=transition)
+    assert solid_problems(mesh) == []
+    assert "pipe0 (its swept solid" in mesh.attributes["merged"]
+    assert {"pipe0", "pipe1", "transition0"} <= set(mesh.part_names)
+    inradius = 0.2 * np.cos(np.pi / 16)
+    axis = np.concatenate([np.linspace(a, b, 6)[1:-1] for a, b in zip(CROSSING[:-1],
+                                                                       CROSSING[1:])])
+    assert covers(mesh, axis, 0.95 * inradius)
+    assert covers(mesh, [[1, -4, 0.1]], 0.95 * 0.2 * np.cos(np.pi / 6))
+
+
+def test_a_strict_pipe_that_overlaps_itself_in_a_splice_is_refused_at_its_index():
+    with pytest.raises(cadpipe.GeometryError, match="pipe 1 intersects itself") as caught:
+        splice(line([1, -5, 0.1], [1, -3, 0.1], 0.2, 6), Pipe(CROSSING, 0.2, strict=True))
+    assert (caught.value.key, caught.value.index, caught.value.fix) == (
+        "pipes", 1, {"strict": False})
+
+
+def test_a_hollow_chain_with_a_pipe_that_overlaps_itself_is_one_valid_shell():
+    mesh = HollowChain(Pipe(CROSSING, 0.2), Pipe([[1, -3, 0.1], [1, -5, 0.1]], 0.2, 6),
+                       wall=0.05).mesh()
+    assert solid_problems(mesh) == []
+    assert not mesh.to_trimesh().contains([[1.5, 0, 0], [1, -4, 0.1]]).any()   # open bore
+
+
+def test_a_pipe_coincident_with_another_in_a_chain_is_covered_once():
+    """Coaxial coincident pieces: a pipe lying on an earlier one (same line, same
+    radius) is their union, covered once (a doubled shell has winding number 2, which
+    the triangle oracle cannot see)."""
+    from test_envelope import winding
+
+    a = line([0, 0, 0], [10, 0, 0])
+    detour = Pipe([[12, 0, 0], [14, 0, 0], [14, 5, 0], [-5, 5, 0], [-5, 0, 0]], 1.0, 8)
+    for again in (line([0, 0, 0], [10, 0, 0]), line([-2, 0, 0], [4, 0, 0], 0.5, 6)):
+        mesh = splice(a, detour, again)
+        assert solid_problems(mesh) == []
+        assert np.allclose(winding(mesh, np.array([[1, 0, 0], [3, 0.2, 0.1], [8, 0, 0]])), 1)
+
+
 def test_clean_chain_is_stitched_as_it_is():
     a, b = line([0, 0, 0], [10, 0, 0]), line([12, 0, 0], [20, 3, 0], sides=6)
     mesh = splice(a, b)

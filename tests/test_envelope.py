@@ -8,12 +8,15 @@ sampled on spheres of radius 0.999 r(s) around path samples.
 
 import numpy as np
 import pytest
+import trimesh
 from hypothesis import HealthCheck, event, given, note, settings
 from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import HollowPipe, Junction, Pipe
 from cadpipe.collision.bodies import as_body
+from cadpipe.geometry.pipe import envelope_factor
+from rates import assert_builds_mostly
 
 
 def winding(mesh, points):
@@ -101,6 +104,51 @@ def test_envelope_holds_the_balls_through_corners(points, corners):
     assert len(uncovered(pipe, rng, count=64)) == 0
 
 
+def random_corners(count, seed):
+    """``count`` corners in random 3D positions and planes: (points, turn) each."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        turn = rng.uniform(0.3, 2.8)
+        d1 = rng.normal(size=3)
+        d1 /= np.linalg.norm(d1)
+        axis = np.cross(d1, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        d2 = np.cos(turn) * d1 + np.sin(turn) * np.cross(axis, d1)
+        c = rng.normal(size=3)
+        yield np.array([c - d1, c, c + d2]), turn, rng
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_envelope_corners_hold_the_corner_ball_through_tapers_and_round_joints(seed):
+    """A mitred ring on a taper leaned its faces into the corner's ball (0.975 r), and
+    corners='round' with envelope=True still built a miter: the corner's ball must be
+    inside either way, and a round corner is a ball joint (no miter tip)."""
+    for points, turn, rng in random_corners(12, seed):
+        sides = int(rng.integers(3, 13))
+        radius = 0.1 * rng.uniform(0.7, 1.3, 3)
+        for corners in ("miter", "round"):
+            pipe = Pipe(points, radius, sides, envelope=True, corners=corners, caps="round")
+            mesh = pipe.mesh()
+            gap = trimesh.proximity.closest_point(mesh.to_trimesh(), points[1:2])[1][0]
+            assert gap >= radius[1] * (1 - 1e-9), (corners, sides, np.degrees(turn))
+        # the round corner's outside is the ball's polyhedron, not the miter tip
+        outward = -pipe.path.bend_directions[1]
+        reach = float(((mesh.vertices - points[1]) @ outward).max())
+        if pipe.miter_stretch[1] - 1 > 1 - np.cos(np.pi / sides):     # a joint corner
+            assert reach <= 1.05 * radius[1] * envelope_factor(sides) + 1e-9
+
+
+def test_envelope_rings_stay_bounded_on_steep_tapers():
+    """Radii changing by nearly a segment's length from point to point took the taper
+    factor 1 / cos(a) to 22,000: the ring needs the wide ball's section there, no more."""
+    path = cadpipe.Path.spline([[0, 0, 0], [1, 0.5, 0], [2, 0, 0.4]], step=0.05)
+    radius = 0.15 * np.where(np.arange(len(path)) % 2, 1.0, 0.4)
+    pipe = Pipe(path, radius, 8, envelope=True)
+    assert (pipe.ring_radii / pipe.radii).max() < 4 * envelope_factor(8)
+    rng = np.random.default_rng(1)
+    assert len(uncovered(pipe, rng, count=24)) == 0
+
+
 # -- hollow walls ------------------------------------------------------------------
 def face_planes(mesh):
     tri = mesh.vertices[mesh.faces]
@@ -166,17 +214,15 @@ options = st.fixed_dictionaries({
     "caps": st.sampled_from(["flat", "round", ("flat", "round")]),
     "envelope": st.booleans(),
     "corners": st.sampled_from(["miter", "round"]),
-    "frame": st.sampled_from(["rmf", "rmf", "rmf", "patent"]),
+    # the patent frame refuses where OP x L turns the rings too far at a corner (a
+    # documented refusal of this frame, not of the path): drawn less often
+    "frame": st.sampled_from(["rmf"] * 7 + ["patent"]),
 })
 
 
 def test_every_frame_corner_and_cap_option_builds_a_valid_conservative_solid():
-    built, tried = [], []
-
-    @settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
     @given(jagged_paths(), st.floats(0.03, 0.12), options)
-    def check(points, radius, opts):
-        tried.append(1)
+    def check(outcomes, points, radius, opts):
         note(repr(points.tolist()))
         if opts["envelope"] and opts["frame"] == "patent":
             with pytest.raises(cadpipe.InputError, match="rotation-minimizing"):
@@ -187,17 +233,19 @@ def test_every_frame_corner_and_cap_option_builds_a_valid_conservative_solid():
             mesh = pipe.mesh()
         except cadpipe.CadpipeError as exc:
             event(f"refused: {exc.key or type(exc).__name__}")
+            outcomes["refused"] += 1
             return
         event("built")
-        built.append(1)
+        outcomes["built"] += 1
         assert mesh.is_watertight and mesh.is_oriented and mesh.volume > 0
         solid = mesh.to_manifold()
         assert solid.volume() == pytest.approx(mesh.volume, rel=1e-6)
         chain = as_body(pipe, "pipe").chain                      # the collision model
-        assert chain.signed_distance(mesh.vertices).max() <= 1e-9
+        samples = trimesh.sample.sample_surface(mesh.to_trimesh(), 2000, seed=0)[0]
+        assert chain.signed_distance(np.concatenate([mesh.vertices, samples])).max() <= 1e-9
         if opts["envelope"]:
             rng = np.random.default_rng(0)
             assert len(uncovered(pipe, rng, count=16)) == 0
 
-    check()
-    assert len(built) >= 0.8 * len(tried), f"built {len(built)} of {len(tried)}"
+    assert_builds_mostly(check, 60, "options", settings(
+        deadline=None, suppress_health_check=list(HealthCheck), derandomize=True))

@@ -92,9 +92,13 @@ def test_fillet_too_large_for_segment_is_an_error():
         Path([[0, 0, 0], [0.1, 0, 0], [0.1, 0.1, 0]]).filleted(1.0)
 
 
-def test_fold_back_is_an_error():
-    with pytest.raises(cadpipe.GeometryError, match="folds back"):
-        _ = Path([[0, 0, 0], [1, 0, 0], [0, 0, 0.0]]).tangents
+def test_a_reversal_has_a_tangent_across_the_path():
+    """A path that turns back has no bisector; its tangent there is a unit vector across
+    the segment (the pipe turns round in a ball joint), not an error."""
+    path = Path([[0, 0, 0], [1, 0, 0], [0, 0, 0.0]])
+    t = path.tangents[1]
+    assert np.isclose(np.linalg.norm(t), 1) and abs(t @ [1, 0, 0]) < 1e-12
+    assert np.isinf(path._lines.miter_stretch[1])
 
 
 def test_fillet_and_trimmed_return_paths_like_resample():

@@ -20,6 +20,7 @@ in them, whatever the radii; straight stretches are single segments however long
 """
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -63,14 +64,17 @@ class Folds:
 def tube_folds(tubes, *, first_only=False):
     """Per tube of the batch, its :class:`Folds`.
 
-    With ``first_only`` the checks stop after the first kind that finds anything in
-    any tube (the answer to "is every tube clean?"), so later kinds may be missing.
+    With ``first_only`` the checks stop at the first finding in any tube (the answer
+    to "is every tube clean?"): after the first kind that finds anything, and inside
+    the distant search at its first pair of meeting units (see
+    :func:`distant_pairs`), so other findings may be missing.
     """
     count = len(tubes.groups)
     messages = [[] for _ in range(count)]
     merged = [[] for _ in range(count)]
     joints = [np.empty(0, np.int64)] * count
-    for check in (_miter_limit, _local_overlaps, _distant_overlaps):
+    for check in (_miter_limit, _local_overlaps, partial(_distant_overlaps,
+                                                          first_only=first_only)):
         tube, describe, segments = check(tubes)
         if tube.size == 0:
             continue
@@ -118,18 +122,18 @@ def _segments_around(groups, rows, before, after):
     return out
 
 
-def _miter_limit_points(tubes):
-    return np.flatnonzero(tubes.miter_stretch > tubes.miter_limit[tubes.lines.groups.index])
-
-
 def _miter_limit(tubes):
     lines = tubes.lines
     stretch = tubes.miter_stretch
     limit = tubes.miter_limit[lines.groups.index]
-    bad = _miter_limit_points(tubes)
+    bad = np.flatnonzero(tubes.over_limit)
 
     def describe(hit):
         i = bad[hit]
+        if not np.isfinite(stretch[i]):
+            return (f"{_where(lines, i)}: the path reverses there (turns by "
+                    f"{np.degrees(lines.turning_angles[i]):.1f} degrees), so the tube must turn "
+                    "round in a ball joint")
         return (f"{_where(lines, i)}: a {np.degrees(lines.turning_angles[i]):.1f} degree "
                 f"corner needs a miter stretch of {stretch[i]:.3g} > miter_limit={limit[i]:g} "
                 "(use corners='round' or a larger miter_limit)")
@@ -148,6 +152,23 @@ def _local_overlaps(tubes):
     """
     lines = tubes.lines
     groups = lines.groups
+    bad, widest, spread = local_folds(tubes)
+    bad = np.flatnonzero(bad)
+
+    def describe(hit):
+        i = bad[hit]
+        return (f"{_where(lines, i)}: radius {widest[i]:.6g} exceeds the local bend radius "
+                f"(about {lines.segment_lengths[i] / spread[i]:.6g})")
+
+    return groups.index[bad], describe, _segments_around(groups, bad, 1, 1)
+
+
+def local_folds(tubes):
+    """(N,) True at segment columns whose two end rings' planes meet inside the tube
+    (see :func:`_local_overlaps`), and the (N,) wider ring radius and the spread
+    ``|g_start - g_end|`` of each column."""
+    lines = tubes.lines
+    groups = lines.groups
     # with t the bisector of the segments at a point, t.d = cos(turn / 2) = 1 / stretch
     # for both segments there, so g = d - t * stretch and the difference across segment
     # j is the change of t * stretch from point j to point j + 1
@@ -156,15 +177,8 @@ def _local_overlaps(tubes):
         spread = norm(groups.following(lean) - lean, 0)
     rho = tubes.ring_radii
     widest = np.maximum(rho, groups.following(rho))
-    is_segment = _is_segment(groups)
-    bad = np.flatnonzero(is_segment & (widest * spread >= lines.segment_lengths * (1 - 1e-9)))
-
-    def describe(hit):
-        i = bad[hit]
-        return (f"{_where(lines, i)}: radius {widest[i]:.6g} exceeds the local bend radius "
-                f"(about {lines.segment_lengths[i] / spread[i]:.6g})")
-
-    return groups.index[bad], describe, _segments_around(groups, bad, 1, 1)
+    bad = _is_segment(groups) & (widest * spread >= lines.segment_lengths * (1 - 1e-9))
+    return bad, widest, spread
 
 
 def _is_segment(groups):
@@ -177,9 +191,8 @@ def _is_segment(groups):
 def reach(tubes):
     """(N,) how far each point's ring reaches from the path: its radius times the
     miter stretch, or (beyond the miter limit, a ball joint) the widened radius."""
-    stretch = tubes.miter_stretch
-    over = stretch > tubes.miter_limit[tubes.lines.groups.index]
-    return tubes.ring_radii * np.where(over, BALL_REACH, np.maximum(stretch, 1.0))
+    return tubes.ring_radii * np.where(tubes.over_limit, BALL_REACH,
+                                       np.maximum(tubes.miter_stretch, 1.0))
 
 
 def segment_distance(p, u, q, v):
@@ -276,9 +289,15 @@ class _CapsuleTree:
 RUN = 8
 
 
-def distant_pairs(tubes):
+def distant_pairs(tubes, first_only=False):
     """Segment column pairs ``(i, j)``, ``i < j``, of one tube each, where the tube
     comes back to itself: their capsules overlap and so do their convex units.
+
+    The tree is walked level by level, a frontier of node pairs at a time; a frontier
+    larger than :data:`FRONTIER` (:data:`FIRST_FRONTIER` for a yes/no) is split and its
+    parts walked down one after the other (depth first), so memory stays bounded and,
+    with ``first_only``, the walk stops at the first pair of units that meet (all a
+    yes/no needs).
 
     Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``, and the
     (K,) sorted segment columns of all of them (the stretches a union must merge).
@@ -290,61 +309,99 @@ def distant_pairs(tubes):
     if groups.size < 3 or (total < RIGHT_ANGLE).all():         # no tube can come back
         return empty, empty, np.empty(0), empty
     tree = _CapsuleTree(tubes)
-    leaf_tube = groups.index
     turning = np.cumsum(lines.turning_angles)                       # C[k]: points 0..k
     top = len(tree.levels) - 1
-    a = b = np.zeros(1, np.int64)
-    for level in range(top, -1, -1):
-        lo, hi, start, end, radius = tree.levels[level]
-        if level == 0:                                           # runs into their columns
-            run_lo, run_hi = tree.levels[1][:2]
-            di, dj = (x.reshape(-1) for x in np.meshgrid(np.arange(RUN), np.arange(RUN),
-                                                         indexing="ij"))
-            ca, cb = run_lo[a][:, None] + di, run_lo[b][:, None] + dj
-            keep = (ca <= run_hi[a][:, None]) & (cb <= run_hi[b][:, None]) & (
-                (a != b)[:, None] | (ca < cb))
-            a, b = ca[keep], cb[keep]
-        elif level < top:                                        # split each pair's nodes
-            count = len(lo)
-            same = a == b
-            ca = np.stack([2 * a, 2 * a, 2 * a + 1, 2 * a + 1], 1)
-            cb = np.stack([2 * b, 2 * b + 1, 2 * b, 2 * b + 1], 1)
-            keep = (ca < count) & (cb < count) & ~(same[:, None] & (ca > cb))
-            a, b = ca[keep], cb[keep]
-        la, ha, lb, hb = lo[a], hi[a], lo[b], hi[b]
-        ta, tb = leaf_tube[la], leaf_tube[hb]
-        one = (ta == leaf_tube[ha]) & (tb == leaf_tube[lb])     # each within one tube
-        keep = ~one | (ta == tb)
-        if level:
-            gap = segment_distance(start[:, a], end[:, a] - start[:, a],
-                                   start[:, b], end[:, b] - start[:, b])
-        else:                                                    # end holds the segments
-            gap = segment_distance(start[:, a], end[:, a], start[:, b], end[:, b])
-        keep &= gap < radius[a] + radius[b]
-        # the stretch joining the two runs turns by at most `most`, around a closed
-        # tube the other way by at least total - `least`
-        most = turning[np.maximum(ha, hb)] - turning[la]
-        least = np.where(lb > ha, turning[lb] - turning[ha], 0.0)
-        closed = groups.closed[ta]
-        straight = (most < RIGHT_ANGLE) | (closed & (total[ta] - least < RIGHT_ANGLE))
-        keep &= ~(one & (ta == tb) & straight)
-        a, b = a[keep], b[keep]
-    i, j = a, b
-    keep = (i != j) & (leaf_tube[a] == leaf_tube[b]) & tree.real[a] & tree.real[b]
-    i, j = i[keep], j[keep]
+    found = []
+    root = np.zeros(1, np.int64)
+    stack = [(top, *_kept(tree, groups, turning, total, top, root, root))]
+    while stack:
+        level, a, b = stack.pop()
+        if level == 0:
+            hit = _leaf_hits(tubes, tree, a, b, first_only)
+            found.append(hit)
+            if first_only and len(hit[0]):
+                break
+            continue
+        a, b = _children(tree, level, a, b)
+        a, b = _kept(tree, groups, turning, total, level - 1, a, b)
+        size = FIRST_FRONTIER if first_only else FRONTIER
+        stack.extend((level - 1, a[k:k + size], b[k:k + size])
+                     for k in reversed(range(0, len(a), size)))
+    i, j, dist = (np.concatenate(x) for x in zip(*found)) if found else (empty, empty,
+                                                                          np.empty(0))
+    order = np.lexsort((j, i))
+    i, j, dist = i[order], j[order], dist[order]
+    return i, j, dist, np.unique(np.concatenate([i, j]))
+
+
+#: node pairs walked down at once by :func:`distant_pairs` (bounds its memory); fewer
+#: for a yes/no, which the first pair of meeting units settles
+FRONTIER = 1 << 16
+FIRST_FRONTIER = 1 << 10
+
+
+def _children(tree, level, a, b):
+    """The node pairs one level below ``level``'s pairs ``(a, b)`` (each node's
+    children against the other's; a node against itself only once per pair)."""
+    if level == 1:                                               # runs into their columns
+        run_lo, run_hi = tree.levels[1][:2]
+        di, dj = (x.reshape(-1) for x in np.meshgrid(np.arange(RUN), np.arange(RUN),
+                                                     indexing="ij"))
+        ca, cb = run_lo[a][:, None] + di, run_lo[b][:, None] + dj
+        keep = (ca <= run_hi[a][:, None]) & (cb <= run_hi[b][:, None]) & (
+            (a != b)[:, None] | (ca < cb))
+        return ca[keep], cb[keep]
+    count = len(tree.levels[level - 1][0])
+    same = a == b
+    ca = np.stack([2 * a, 2 * a, 2 * a + 1, 2 * a + 1], 1)
+    cb = np.stack([2 * b, 2 * b + 1, 2 * b, 2 * b + 1], 1)
+    keep = (ca < count) & (cb < count) & ~(same[:, None] & (ca > cb))
+    return ca[keep], cb[keep]
+
+
+def _kept(tree, groups, turning, total, level, a, b):
+    """The node pairs ``(a, b)`` at ``level`` that may hold a fold: each within one
+    tube, their capsules meeting, and the stretch of path between them turning by at
+    least a right angle (around a closed tube, either way)."""
+    lo, hi, start, end, radius = tree.levels[level]
+    leaf_tube = groups.index
+    la, ha, lb, hb = lo[a], hi[a], lo[b], hi[b]
+    ta, tb = leaf_tube[la], leaf_tube[hb]
+    one = (ta == leaf_tube[ha]) & (tb == leaf_tube[lb])     # each within one tube
+    keep = ~one | (ta == tb)
+    if level:
+        gap = segment_distance(start[:, a], end[:, a] - start[:, a],
+                               start[:, b], end[:, b] - start[:, b])
+    else:                                                    # end holds the segments
+        gap = segment_distance(start[:, a], end[:, a], start[:, b], end[:, b])
+    keep &= gap < radius[a] + radius[b]
+    # the stretch joining the two runs turns by at most `most`, around a closed
+    # tube the other way by at least total - `least`
+    most = turning[np.maximum(ha, hb)] - turning[la]
+    least = np.where(lb > ha, turning[lb] - turning[ha], 0.0)
+    closed = groups.closed[ta]
+    straight = (most < RIGHT_ANGLE) | (closed & (total[ta] - least < RIGHT_ANGLE))
+    keep &= ~(one & (ta == tb) & straight)
+    return a[keep], b[keep]
+
+
+def _leaf_hits(tubes, tree, a, b, first_only):
+    """``(i, j, distance)`` of the segment column pairs ``(a, b)`` (kept at the leaves)
+    whose convex units meet: real segments of one tube, not neighbours, closer than
+    their reaches."""
+    groups = tubes.lines.groups
+    keep = (a != b) & (groups.index[a] == groups.index[b]) & tree.real[a] & tree.real[b]
+    i, j = a[keep], b[keep]
     _, next_i = _neighbours(groups, i)
     _, next_j = _neighbours(groups, j)
     keep = (next_i != j) & (next_j != i)                           # not adjacent
     i, j = i[keep], j[keep]
-    xyz, seg, r = lines.xyz, lines.segments, tree.reach
+    xyz, seg, r = tubes.lines.xyz, tubes.lines.segments, tree.reach
     dist = segment_distance(xyz[:, i], seg[:, i], xyz[:, j], seg[:, j])
     close = dist < r[i] + r[j]
     i, j, dist = i[close], j[close], dist[close]
-    hit = _units_meet(tubes, i, j)
-    i, j, dist = i[hit], j[hit], dist[hit]
-    order = np.lexsort((j, i))
-    i, j, dist = i[order], j[order], dist[order]
-    return i, j, dist, np.unique(np.concatenate([i, j]))
+    hit = _units_meet(tubes, i, j, first_only)
+    return i[hit], j[hit], dist[hit]
 
 
 #: unit pairs tested at once by :func:`_units_meet` (bounds its memory)
@@ -355,7 +412,7 @@ def _unit_points(tubes, cols, sides):
     """(P, 4 * sides, 3) points whose hull holds each segment's unit, and (P, 3) the
     segments' directions: its two end rings (each twice), or at a corner beyond the
     miter limit (a ball joint) a prism square to the segment around the ball."""
-    from cadpipe.geometry.rings import ring_basis
+    from cadpipe.geometry.rings import ring_basis, square_rings
 
     lines, groups = tubes.lines, tubes.groups
     nxt = groups.following(np.arange(groups.size))[cols]
@@ -363,26 +420,25 @@ def _unit_points(tubes, cols, sides):
     out = []
     for at in (cols, nxt):
         ring = np.matmul(ring_basis(sides), tubes.axes[at])           # (P, sides, 3)
-        over = tubes.miter_stretch[at] > tubes.miter_limit[groups.index[at]]
+        over = tubes.over_limit[at]
         ring_a, ring_b = ring, ring
         if over.any():
-            centre = lines.xyz[:, at[over]].T[:, None]
-            rho = tubes.ring_radii[at[over]][:, None, None]
-            dd = d[over][:, None]
-            flat = ring[over] - centre
-            flat = (flat - np.sum(flat * dd, -1, keepdims=True) * dd) * (
-                BALL_REACH / np.cos(np.pi / sides))
+            rho = tubes.ring_radii[at[over]]
+            dd = d[over]
+            flat = square_rings(lines.xyz[:, at[over]].T, dd,
+                                rho * (BALL_REACH / np.cos(np.pi / sides)), sides)
             ring_a, ring_b = ring.copy(), ring.copy()
-            ring_a[over] = centre + flat - BALL_REACH * rho * dd
-            ring_b[over] = centre + flat + BALL_REACH * rho * dd
+            ring_a[over] = flat - (BALL_REACH * rho)[:, None, None] * dd[:, None]
+            ring_b[over] = flat + (BALL_REACH * rho)[:, None, None] * dd[:, None]
         out += [ring_a, ring_b]
     return np.concatenate(out, axis=1), d
 
 
-def _units_meet(tubes, i, j):
+def _units_meet(tubes, i, j, first_only=False):
     """(P,) True where the convex units of segment columns ``i`` and ``j`` overlap by
     more than a touch: no plane among both units' side faces, ring planes and the
-    line between their centres separates them."""
+    line between their centres separates them. With ``first_only`` the blocks after
+    the first that holds such a pair are left untested (False)."""
     hit = np.zeros(len(i), bool)
     if not len(i):
         return hit
@@ -392,6 +448,8 @@ def _units_meet(tubes, i, j):
         for start in range(0, len(rows), UNIT_BLOCK):
             block = rows[start:start + UNIT_BLOCK]
             hit[block] = ~_separated(tubes, i[block], j[block], n)
+            if first_only and hit[block].any():
+                return hit
     return hit
 
 
@@ -428,7 +486,8 @@ def _apart(pi, pj, axes):
     b = np.einsum("pak,pvk->pav", axes, pj)
     tol = 1e-9 * (np.abs(pi).max(axis=(1, 2)) + np.abs(pj).max(axis=(1, 2)))[:, None]
     apart = (a.max(axis=2) <= b.min(axis=2) + tol) | (b.max(axis=2) <= a.min(axis=2) + tol)
-    return apart.any(axis=1)
+    # a degenerate axis (coincident centres, a zero edge) projects both to one point
+    return (apart & (size[..., 0] > 0)).any(axis=1)
 
 
 def piece_meets_units(tubes, points, cols):
@@ -462,12 +521,12 @@ def _neighbours(groups, cols):
     return prev, nxt
 
 
-def _distant_overlaps(tubes):
+def _distant_overlaps(tubes, first_only=False):
     """Stretches apart along the path that come within the tube's reach of each other;
     see :func:`distant_pairs`."""
     lines = tubes.lines
     groups = lines.groups
-    i, j, dist, merged = distant_pairs(tubes)
+    i, j, dist, merged = distant_pairs(tubes, first_only)
     if not len(i):
         return i, None, {}
     r = reach(tubes)

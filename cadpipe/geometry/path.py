@@ -27,6 +27,9 @@ from cadpipe.solids.transform import as_matrix
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
+#: a turn beyond this (radians) reverses the path: the segments there have no bisector,
+#: and a tube must turn round in a ball joint (the swept solid)
+REVERSAL = np.pi - 1e-9
 #: default largest turn, in radians, of one segment of a fillet's arc (5 degrees)
 ARC_STEP = float(np.radians(5.0))
 
@@ -129,9 +132,10 @@ class Path:
         """(N, 3) unit tangents: the bisector of the adjacent segments at interior points.
 
         A ring in the plane normal to the bisector is a miter joint, which keeps a
-        tube's full radius through a corner.
+        tube's full radius through a corner. Where the path reverses (a turn beyond
+        :data:`REVERSAL`) there is no bisector; the tangent is then a unit vector across
+        the incoming segment (a pipe turns round there in a ball joint).
         """
-        self._lines.require_no_folds()
         return np.ascontiguousarray(self._lines.tangents.T)
 
     @cached_property
@@ -481,26 +485,29 @@ class Polylines:
             bisector = d_in + d_out
             size = norm(bisector, 0)
             np.divide(bisector, np.where(size > 0, size, 1.0), out=out[0:3, rows])
+            back = turn > REVERSAL                                # no bisector: any normal
+            if back.any():
+                out[0:3, rows][:, back] = _across(d_in[:, back])
             np.multiply(unit(d_out - d_in, 0), turn > 1e-12, out=out[3:6, rows])
-            with np.errstate(divide="ignore"):                    # a fold: infinite
-                np.divide(2.0, size, out=out[7, rows])            # |d_in + d_out| = 2 cos(turn/2)
+            with np.errstate(divide="ignore"):                    # |d_in + d_out| = 2 cos(turn/2)
+                np.divide(2.0, np.where(back, 0.0, size), out=out[7, rows])
         return out
 
     tangents = _rows("_corners", slice(0, 3), "(3, N) unit bisectors of the adjacent "
-                     "segments (see :meth:`require_no_folds`).")
+                     "segments; where a polyline reverses (a turn beyond :data:`REVERSAL`) a "
+                     "unit vector across the incoming segment.")
     bend_directions = _rows("_corners", slice(3, 6), "(3, N) unit vector in each corner's plane, "
                             "across the tangent (zero where the polyline is straight).")
     turning_angles = _rows("_corners", 6, "(N,) angle between the incoming and outgoing "
                            "segment at each point.")
     miter_stretch = _rows("_corners", 7, "(N,) ``1 / cos(turn / 2)``: how far a ring in the "
                           "bisector plane reaches along the bend to stay on both segments' "
-                          "cylinders (infinite at a fold).")
+                          "cylinders (infinite where the polyline reverses).")
 
-    def require_no_folds(self):
-        """Raise :class:`GeometryError` where a polyline reverses (no tangent exists)."""
-        folds = np.flatnonzero(self.turning_angles > np.pi - 1e-9)
-        if folds.size:
-            i = folds[0]
-            local = i - self.groups.first[self.groups.index[i]]
-            raise GeometryError(f"the path folds back on itself at point {local} "
-                                f"({self.xyz[:, i].tolist()}); remove the reversal", key="points")
+
+def _across(d):
+    """(3, K) unit vectors across the (3, K) unit vectors ``d``: ``d x e`` for the axis
+    ``e`` least aligned with each."""
+    axis = np.zeros_like(d)
+    axis[np.argmin(np.abs(d), axis=0), np.arange(d.shape[1])] = 1.0
+    return unit(cross(d, axis, 0), 0)

@@ -21,11 +21,13 @@ from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan
-from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, piece_meets_units,
-                                        reach, segment_distance)
+from cadpipe.geometry.bands import band_triangles, clearance
+from cadpipe.geometry.cover import round_cone_covers
+from cadpipe.geometry.clearance import (BALL_REACH, BALL_SIDES, Folds, local_folds,
+                                        piece_meets_units, reach, segment_distance)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path, polylines
-from cadpipe.geometry.rings import Tubes, ring_basis
+from cadpipe.geometry.rings import Tubes, ring_basis, square_rings
 
 CAP_STYLES = ("flat", "round")
 CORNER_STYLES = ("miter", "round")
@@ -57,6 +59,21 @@ def _filleted_radii(path, bend, radii, filleted):
     return np.interp(along, path.arc_length, radii)
 
 
+def _cone_section(r_other, r_here, length):
+    """Radius, at the ring of ``r_here``, of the round cone ``conv(B(other, r_other),
+    B(here, r_here))`` ``length`` apart (its section in the plane square to the axis):
+    ``r_here`` at the wide end; at the narrow end the side line, ``r_here / cos(a)``
+    with ``sin a = (r_other - r_here) / length``, where that line already runs there,
+    else the wide ball's own section ``sqrt(r_other**2 - length**2)``."""
+    sine = np.clip((r_other - r_here) / length, 0.0, 1.0)
+    cosine = np.sqrt(1.0 - sine ** 2)
+    on_line = length >= r_other * sine                 # past the side's tangent point
+    with np.errstate(divide="ignore", invalid="ignore"):
+        line = r_here / cosine
+    ball = np.sqrt(np.maximum(r_other ** 2 - length ** 2, 0.0))
+    return np.where(sine <= 0, r_here, np.where(on_line, line, np.maximum(ball, r_here)))
+
+
 def envelope_factor(sides):
     """Circumradius over inradius of a regular polygon: ``1 / cos(pi / sides)``."""
     return 1.0 / np.cos(np.pi / sides)
@@ -85,7 +102,9 @@ class Pipe:
         False: ring vertices on the circle (the polygon lies inside the round tube).
         True: a conservative safety envelope: the solid contains every ball of radius
         ``r(s)`` centred on the path (``r`` interpolated linearly between points),
-        through tapers, corners and caps (a flat cap then lies ``r`` beyond the end).
+        through tapers, corners and caps (a flat cap then lies ``r`` beyond the end);
+        radii that change faster than half the arc length are raised first (see
+        :attr:`envelope_radii`).
     tolerance : float, optional
         Chordal tolerance used to choose ``sides``.
     frame : {"rmf", "patent"}
@@ -102,9 +121,10 @@ class Pipe:
         Polyline corners as miter joints (the rings meet in the bisector plane), or
         ball joints: the outside of each corner is the sphere of the corner's radius
         about the corner point, so the corner point keeps the full radius and no miter
-        tip sticks out (the path itself is not rounded). Gentle corners, and every
-        corner of an ``envelope=True`` pipe, keep their miter joint, which holds the
-        corner's ball too.
+        tip sticks out (the path itself is not rounded). With ``envelope=True`` the
+        ball joint is a polyhedron circumscribing the ball of the corner's radius,
+        united with the segments cut square there (conservative). Gentle corners keep
+        their miter joint, which holds the corner's ball too.
     bend_radius : float, optional
         Deprecated: rounds the path itself with arcs of this radius (the pipe then
         follows :meth:`Path.fillet`'s path); pass ``path.fillet(bend_radius)[0]``.
@@ -269,23 +289,85 @@ class Pipe:
     def ring_radii(self) -> np.ndarray:
         """(N,) distance of ring vertices from the axis (before miter stretch).
 
-        The radius itself, or with ``envelope=True`` the circumradius of the polygon
-        whose sides touch a circle ``1 / cos(a)`` larger than the radius, ``a`` the
-        steeper taper of the segments beside the ring (``sin a = |dr| / length``): the
-        round cone a tapered segment's balls sweep is that much wider than the circle
-        of the ball at its end.
+        The radius itself, or with ``envelope=True`` (from :attr:`envelope_radii`) the
+        circumradius of the polygon whose sides touch the widest section, in the ring's
+        plane, of the round cones
+        the balls of the segments beside it sweep: the ball's own radius, or where the
+        segment tapers by ``a`` (``sin a = |dr| / length``) the cone's side line,
+        ``r / cos(a)`` at the narrow end (while the cone's side starts before that end;
+        else the wide ball's own section there). Then the faces are checked against
+        the balls, and grown where a mitred ring on a taper or a twist leans them in
+        (:meth:`_envelope_growth`).
         """
         if not self.envelope:
             return self.radii
-        r = self.radii
+        r = self.envelope_radii
+        count = len(self.path.segments)
         lengths = self.path.segment_lengths
-        ahead = np.roll(r, -1)[:len(lengths)]
-        sine = np.minimum(np.abs(ahead - r[:len(lengths)]) / lengths, 1.0 - 1e-9)
-        slope = 1.0 / np.sqrt(1.0 - sine ** 2)
-        before = np.roll(slope, 1) if self.closed else np.concatenate([slope[:1], slope])
-        after = slope if self.closed else np.concatenate([slope, slope[-1:]])
-        return _frozen(r * envelope_factor(self.sides) * np.maximum(before, after)
-                       / np.cos(self._twist_bound / 2))
+        near, far = r[:count], np.roll(r, -1)[:count]
+        section = np.stack([_cone_section(far, near, lengths), _cone_section(near, far, lengths)])
+        widest = np.ones((2, len(r)))
+        widest[0, :count] = section[0] / near                     # each segment's start
+        widest[1, (np.arange(count) + 1) % len(r)] = section[1] / far
+        start = (r * envelope_factor(self.sides) * widest.max(axis=0)
+                 / np.cos(self._twist_bound / 2))
+        return _frozen(start * self._envelope_growth(start))
+
+    @cached_property
+    def envelope_radii(self) -> np.ndarray:
+        """(N,) the radii an ``envelope=True`` pipe holds balls of: :attr:`radii`,
+        raised where they change along the path by more than
+        :data:`ENVELOPE_SLOPE` times the arc length (``max_i r_i - slope |s_i - s|``).
+        A ball whose radius outruns its neighbours by more reaches past their rings
+        and caps; the raised balls hold it, and their round cones are what the rings
+        follow."""
+        s, r = self.path.arc_length, self.radii
+        if self.closed:                           # around the loop both ways: three laps
+            s = np.concatenate([s - self.path.length, s, s + self.path.length])
+            r = np.tile(r, 3)
+        ahead = np.maximum.accumulate(r + ENVELOPE_SLOPE * s) - ENVELOPE_SLOPE * s
+        behind = (np.maximum.accumulate((r - ENVELOPE_SLOPE * s)[::-1])[::-1]
+                  + ENVELOPE_SLOPE * s)
+        out = np.maximum(ahead, behind)
+        return _frozen(out[len(self.path):2 * len(self.path)] if self.closed else out)
+
+    def _envelope_growth(self, start):
+        """(N,) how much the envelope's rings (``start``: radii from the taper and twist
+        alone) must grow for every face to clear the balls it holds. A band's faces
+        must lie at least ``r`` from the ball centres at both its rings (the balls
+        between them are held by the cones' sections, see :attr:`ring_radii`); a mitred ring
+        on a taper leans its faces towards the corner, a twisted band bends its quads
+        in. Each band short of that grows both its rings, until none is
+        (:data:`ENVELOPE_PASSES` at most). Distances are to the faces themselves,
+        not their planes: a face that widens away from a ring leans its plane into
+        that ring's ball, but not itself."""
+        r = self.envelope_radii
+        tubes = tubes_of([self], [start])
+        centres = self.path.points
+        first = np.arange(len(self.path.segments))
+        second = (first + 1) % len(self.path)
+        with np.errstate(invalid="ignore"):             # a reversal's ring: swept anyway
+            offsets = tubes.rings(slice(None), self.sides) - centres[:, None]
+        last = offsets[second]
+        if self.closed:                                 # the seam meets ring 0 turned
+            last[-1] = np.roll(last[-1], -tubes.seam_shift[0], axis=0)
+        grow = np.ones(len(r))
+        for _ in range(ENVELOPE_PASSES):
+            faces = band_triangles(centres[first, None] + grow[first, None, None]
+                                   * offsets[first], centres[second, None]
+                                   + grow[second, None, None] * last)
+            short = np.maximum(r[first] / clearance(faces, centres[first]),
+                               r[second] / clearance(faces, centres[second]))
+            # a band whose rings meet inside the tube is swept (its hull holds it)
+            folded = local_folds(tubes.with_radii(start * grow))[0][first]
+            short = np.where(np.isfinite(short) & (short > 0) & ~folded, short, 1.0)
+            if (short <= 1 + 1e-12).all():
+                break
+            need = np.ones(len(r))
+            np.maximum.at(need, first, short)
+            np.maximum.at(need, second, short)
+            grow *= need * (1 + 1e-9)
+        return grow
 
     @cached_property
     def _twist_bound(self) -> float:
@@ -393,28 +475,40 @@ class Pipe:
         folds = self._tubes.folds(first_only=first_only)[0]
         if folds and first_only:
             return folds
-        messages, segments = self._cap_folds
+        return self._with_cap_folds(folds)
+
+    def _with_cap_folds(self, folds, ends=(True, True)):
+        """``folds`` (of this pipe's tube) with those of its end caps where ``ends``
+        (start, end) has one: where a cap (round, or an envelope's flat cap reaching
+        ``r`` past the end) overlaps the unit of a segment other than its own, the
+        findings, and the cap's segment and those it reaches to merge. A splice
+        cuts a pipe's ends that meet transitions: they have no cap."""
+        ends = tuple(bool(e) for e in ends)
+        cache = self.__dict__.setdefault("_cap_folds_of", {})     # per pipe, as cached_property
+        if ends not in cache:
+            cache[ends] = self._cap_folds(ends)
+        messages, segments = cache[ends]
         if not messages:
             return folds
         return Folds(folds.messages + messages, np.union1d(folds.segments, segments),
                      folds.joints)
 
-    @cached_property
-    def _cap_folds(self):
-        """Where an end cap (round, or an envelope's flat cap reaching ``r`` past the
-        end) overlaps the unit of a segment other than its own: findings, and the
-        segments a union merges (the cap's own and those it reaches)."""
+    def _cap_folds(self, ends):
         empty = ((), np.empty(0, np.int64))
         count = len(self.path.segments)
-        if self.closed or count < 2:
+        # only a round cap, or an envelope's flat one, reaches past its end ring
+        reaching = [e and (style == "round" or self.envelope)
+                    for e, style in zip(ends, self.cap_styles)]
+        if self.closed or count < 2 or not any(reaching):
             return empty
         tubes, lines = self._tubes, self._tubes.lines
         r = reach(tubes)
         reach_seg = np.maximum(r[:-1], r[1:])
         messages, merged = [], []
-        for row, sign, seg, style, name in ((0, -1, 0, self.cap_styles[0], "start"),
-                                            (count, 1, count - 1, self.cap_styles[1], "end")):
-            cap = cap_axes(tubes, row, sign, self, style)
+        for row, sign, seg, style, name, wanted in (
+                (0, -1, 0, self.cap_styles[0], "start", ends[0]),
+                (count, 1, count - 1, self.cap_styles[1], "end", ends[1])):
+            cap = cap_axes(tubes, row, sign, self, style) if wanted else None
             if cap is None:
                 continue
             points = np.concatenate([self.rings()[row],
@@ -469,10 +563,10 @@ class Pipe:
         """
         self._require_float32()
         folds = self._folds(first_only=self.strict)
-        if not folds:
+        if not folds and not self._united_joints:
             vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
             return Mesh.trusted(vertices, faces, attributes=self.attributes)
-        if self.strict:
+        if folds and self.strict:
             problems = folds.messages
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
@@ -543,105 +637,58 @@ class Pipe:
         neighbouring units overlap instead of merely touching (booleans treat touching
         solids as apart). The swept solid is built from these same pieces.
         """
-        rows = np.flatnonzero(joint_rows_of(self._tubes, 0, len(self.path) - 1, self))
+        rows = np.flatnonzero(round_corner_rows(self._tubes, 0, len(self.path) - 1, self))
         return _units(self, np.arange(len(self.path.segments)), rows, overlap=overlap)
 
     def collision_units(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Round cones whose union contains this pipe's mesh: the collision model.
 
-        Per segment, the cone between the balls at its two points, widened by the taper
-        over the miter setbacks; per mitered corner, a capsule from the corner point
-        towards the miter tip (the ring there is an ellipse stretched along the outer
-        bend direction, and the capsule of the ring radius along that semi-axis, minus
-        the radius, holds it); per envelope cap, a ball or capsule reaching the cap's
-        far face. Each unit's axis lies inside the mesh, so the chain exceeds the mesh
-        by at most its largest unit radius (the ring radius, or up to
-        ``1 / cos(pi / (2 (2m - 1)))`` of it at an envelope's round caps).
+        Built from the convex pieces :meth:`mesh` is made of (see
+        :mod:`cadpipe.geometry.cover`), swept stretches included: per segment (or run
+        of segments merged into one hull) a cone between its end rings' centres, its
+        radii grown by whatever of the piece sticks out of them (a taper leaning into
+        a mitred ring); per mitred corner a capsule from the corner point towards the
+        miter tip; per ball (a joint, a corner beyond the miter limit) and round cap a
+        ball; per envelope flat cap a capsule to the cap's face.
+
+        The chain contains the mesh (every vertex, and every face: each piece is convex
+        and inside its units). Each unit's axis lies inside the mesh, so the chain
+        exceeds the mesh by at most that unit's radius (the ring radius ``rho``, grown
+        where a piece sticks out of it): that far only past flat caps, where the units
+        end in balls; elsewhere by the polygon's chordal deviation ``rho (1 - cos(pi /
+        sides))`` along straight stretches, about ``0.3 rho`` at the outside of a
+        right-angled miter, 4 % of ``rho`` at a swept ball.
 
         Returns
         -------
         starts, ends : (U, 3) float
         start_radii, end_radii : (U,) float
         """
-        path, rho = self.path, self.ring_radii
-        n = len(path)
-        i = np.arange(len(path.segments))
-        j = (i + 1) % n
-        setback = rho * np.tan(np.minimum(path.turning_angles, np.pi - 1e-9) / 2)
-        taper = np.abs(rho[j] - rho[i]) / path.segment_lengths
-        starts, ends = [path.points[i]], [path.points[j]]
-        start_r, end_r = [rho[i] + 2 * taper * setback[i]], [rho[j] + 2 * taper * setback[j]]
-        corner = np.flatnonzero((self.miter_stretch > 1 + 1e-12)
-                                & ~joint_rows_of(self._tubes, 0, n - 1, self))
-        if corner.size:
-            outward = -path.bend_directions[corner]
-            starts.append(path.points[corner])
-            ends.append(path.points[corner] + ((self.miter_stretch[corner] - 1)
-                                               * rho[corner])[:, None] * outward)
-            start_r.append(rho[corner])
-            end_r.append(rho[corner])
-        if not self.closed:
-            for row, sign, style in ((0, -1, self.cap_styles[0]), (n - 1, 1, self.cap_styles[1])):
-                cap = cap_axes(self._tubes, row, sign, self, style)
-                if cap is None or (style == "round" and not self.envelope):
-                    continue                    # within the end ball already
-                end = path.points[row]
-                if style == "flat":
-                    far = cap[0][0, 2]
-                    starts.append(end[None])
-                    ends.append(far[None])
-                    start_r.append(rho[row:row + 1])
-                    end_r.append(rho[row:row + 1])
-                else:
-                    vertices = np.matmul(ring_basis(self.sides), cap[0]).reshape(-1, 3)
-                    extent = np.linalg.norm(np.vstack([vertices, cap[1]]) - end, axis=1).max()
-                    starts.append(end[None])
-                    ends.append(end[None])
-                    start_r.append([max(extent, rho[row])])
-                    end_r.append([max(extent, rho[row])])
-        return (np.concatenate(starts), np.concatenate(ends), np.concatenate(start_r),
-                np.concatenate(end_r))
+        count = len(self.path.segments)
+        folds = self._folds()
+        merged, joints = self._swept_plan(folds) if folds or self._united_joints else (
+            np.zeros(count, bool), np.empty(0, np.int64))
+        units = [_segment_covers(self, np.flatnonzero(~merged))]
+        if merged.any():
+            units.append(_piece_covers(_unit_pieces(self, np.flatnonzero(merged), joints,
+                                                    tongue=TONGUE)))
+        return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+    @cached_property
+    def _united_joints(self):
+        """Whether the mesh unites ball joints with their segments even where the tube
+        does not fold: an envelope's round corners (see :func:`joint_rows_of`)."""
+        return self.envelope and bool(round_corner_rows(self._tubes, 0, len(self.path) - 1,
+                                                        self).any())
 
     def _swept_mesh(self, folds):
-        """The tube with each stretch that folds replaced by the union of its convex
-        units (:func:`_units`), the clean stretches kept as they are, all united by
-        manifold3d and welded at float32 precision (:func:`welded_solid`).
-
-        Inside a merged stretch every corner beyond the miter limit, and every ball
-        joint, is a ball with the units cut square at it; a stretch is widened until
-        it ends on plain rings, so a clean piece never ends on a joint."""
-        import manifold3d
-
-        n, count = len(self.path), len(self.path.segments)
-        merged = np.zeros(count, bool)
-        merged[folds.segments] = True
-        rows = np.arange(n)
-        before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
-        after = np.where(rows < count, rows, -1)
-        corner = (before >= 0) & (after >= 0)
-        ball = corner & (joint_rows_of(self._tubes, 0, n - 1, self)
-                         | (self.miter_stretch > self.miter_limit))
-        ball[folds.joints] = True
-        while True:                         # widen stretches that end on a ball joint
-            touched = ball & (merged[before] | merged[after]) & ~(merged[before]
-                                                                  & merged[after])
-            if not touched.any():
-                break
-            merged[before[touched]] = merged[after[touched]] = True
-        joints = np.flatnonzero(ball & merged[before] & merged[after])
-        # manifold3d's tolerance grows with the coordinates: unite about the pipe's middle
-        low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
-        middle = 0.5 * (low + high)
-        pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE)
-        solids = [manifold3d.Manifold.hull_points(p - middle) for p in pieces]
-        if not merged.all():
-            for a, b in _runs(~merged, self.closed):
-                piece = self._piece(a, b)
-                solids.append(Mesh.trusted(piece.vertices - middle, piece.faces)
-                              .to_manifold("pipe"))
-        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
-        solid = solid.translate(tuple(middle.tolist()))
-        stretches = _runs(merged, self.closed)
+        """The tube with each stretch that folds (and each envelope ball joint)
+        replaced by the union of its convex units, as one welded mesh (see
+        :meth:`_swept_solid` and :func:`welded_solid`); where it folds,
+        ``attributes["merged"]`` names the merged stretches."""
+        solid, stretches = self._swept_solid(folds)
+        if not folds:
+            return welded_solid(solid, attributes=self.attributes)
         arc = self.path.arc_length
         spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
                                      else self.path.length)) for a, b in stretches]
@@ -652,24 +699,114 @@ class Pipe:
             "merged_arc_lengths": tuple(x for span in spans for x in span),
             "folds": folds.messages[0]})
 
-    def _piece(self, first, last):
+    def _swept_solid(self, folds, ends=(True, True)):
+        """The tube with each stretch that folds replaced by the union of its convex
+        units (:func:`_units`), the clean stretches kept as they are, all united by
+        manifold3d.
+
+        Inside a merged stretch every corner beyond the miter limit, and every ball
+        joint, is a ball with the units cut square at it; a stretch is widened until
+        it ends on plain rings, so a clean piece never ends on a joint.
+
+        Parameters
+        ----------
+        folds : Folds
+            Where the tube folds (:meth:`folds`, or :meth:`_with_cap_folds` for the
+            same ``ends``).
+        ends : (bool, bool)
+            Whether the start and end keep their caps; False cuts that end flat on its
+            last ring (where a splice's transition continues it).
+
+        Returns
+        -------
+        solid : manifold3d.Manifold
+        stretches : list of (int, int)
+            The merged segments' runs, first and last segment (wrapping around a
+            closed pipe).
+        """
+        import manifold3d
+
+        merged, joints = self._swept_plan(folds)
+        # manifold3d's tolerance grows with the coordinates: unite about the pipe's middle
+        low, high = self.path.points.min(axis=0), self.path.points.max(axis=0)
+        middle = 0.5 * (low + high)
+        pieces = _units(self, np.flatnonzero(merged), joints, tongue=TONGUE, capped=ends)
+        solids = [hull_solid(p - middle) for p in pieces]
+        if not merged.all():
+            for a, b in _runs(~merged, self.closed):
+                piece = self._piece(a, b, ends)
+                solids.append(Mesh.trusted(piece.vertices - middle, piece.faces)
+                              .to_manifold("pipe"))
+        solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
+        return solid.translate(tuple(middle.tolist())), _runs(merged, self.closed)
+
+    def _swept_plan(self, folds):
+        """``(merged, joints)``: (M,) which segments the swept solid builds from their
+        convex units, and the corners inside them that are balls (beyond the miter
+        limit, reversals, ball joints), the merged stretches widened until they end on
+        plain rings. An envelope's round corners are always balls (see
+        :func:`joint_rows_of`), so the segments beside them are always merged."""
+        n, count = len(self.path), len(self.path.segments)
+        merged = np.zeros(count, bool)
+        merged[folds.segments] = True
+        rows = np.arange(n)
+        before = np.where(rows > 0, rows - 1, count - 1 if self.closed else -1)
+        after = np.where(rows < count, rows, -1)
+        corner = (before >= 0) & (after >= 0)
+        round_ = corner & round_corner_rows(self._tubes, 0, n - 1, self)
+        ball = round_ | (corner & self._tubes.over_limit)
+        ball[folds.joints] = True
+        if self.envelope:
+            merged[before[round_]] = merged[after[round_]] = True
+        while True:                         # widen stretches that end on a ball joint
+            touched = ball & (merged[before] | merged[after]) & ~(merged[before]
+                                                                  & merged[after])
+            if not touched.any():
+                break
+            merged[before[touched]] = merged[after[touched]] = True
+        return merged, np.flatnonzero(ball & merged[before] & merged[after])
+
+    def _piece(self, first, last, ends=(True, True)):
         """The closed solid of the clean segments ``first..last`` (wrapping around a
         closed pipe): laid out by :func:`add_pipe_surfaces` as the whole pipe is, with
-        flat fans where the stretch is cut."""
+        flat fans where the stretch is cut (and at ends ``ends`` leaves without cap)."""
         surface = Surface()
         add_pipe_surfaces(surface, self._tubes, [self], cap_start=[True], cap_end=[True],
-                          windows=[(first, last)])
+                          windows=[(first, last)], cut=[(not ends[0], not ends[1])])
         vertices, faces, _ = surface.build()
         return Mesh.trusted(vertices, faces)
 
 
+#: most an envelope's radii change per unit of arc length (see Pipe.envelope_radii)
+ENVELOPE_SLOPE = 0.5
+#: most passes of growing an envelope's rings until its faces clear its balls
+ENVELOPE_PASSES = 8
 #: merged units reach this fraction of the ring radius into their neighbours (see _units)
 TONGUE = 1e-3
 
 
-def welded_solid(solid, **kwargs):
-    """The :class:`Mesh` of a manifold3d ``solid``, with no two vertices closer than
-    float32 can tell apart at its size.
+def hull_solid(points, name="hull", original_id=None):
+    """The convex hull of ``points`` (K, 3) as a manifold3d solid, triangulated by qhull.
+
+    manifold3d's own ``hull_points`` leaves folded triangles where many points are
+    coplanar (two parallel rings, two equal balls side by side: 12 crossing face pairs
+    on a splice's ball joint); qhull's triangulation of a coplanar facet is flat."""
+    from scipy.spatial import ConvexHull
+
+    hull = ConvexHull(points)
+    faces = hull.simplices.copy()
+    tri = points[faces]
+    inward = np.einsum("ij,ij->i", np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]),
+                       hull.equations[:, :3]) < 0
+    faces[inward] = faces[inward][:, ::-1]
+    used, local = np.unique(faces, return_inverse=True)
+    return Mesh.trusted(points[used], local.reshape(-1, 3)).to_manifold(name, original_id)
+
+
+def welded_solid(solid, part_of_id=None, **kwargs):
+    """The :class:`Mesh` of a manifold3d ``solid`` (faces labelled by ``part_of_id`` as
+    :meth:`Mesh.from_manifold` does), with no two vertices closer than float32 can tell
+    apart at its size.
 
     A union leaves clusters of vertices where its pieces meet at grazing angles; STL,
     3MF, OBJ and PLY files (float32) would merge them, into edges shared by more than
@@ -687,12 +824,12 @@ def welded_solid(solid, **kwargs):
     low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
     ulp = 2.0 ** -23 * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
     volume = solid.volume()
-    plain = Mesh.from_manifold(solid, **kwargs)
+    plain = Mesh.from_manifold(solid, part_of_id, **kwargs)
     if not len(cKDTree(plain.vertices).query_pairs(FLOAT32_CLOSE * ulp,
                                                    output_type="ndarray")):
         return plain                                 # nothing a float32 file would merge
     for ulps in (FLOAT32_WELD, 4, FLOAT32_CLOSE):
-        welded = _weld(plain, ulps * ulp, kwargs)
+        welded = _weld(plain, ulps * ulp)
         if welded is not None and abs(welded[0].volume - volume) <= WELD_VOLUME * volume \
                 and not _crossings_near(*welded, ulps * ulp):
             return welded[0]
@@ -717,9 +854,10 @@ def _crossings_near(mesh, moved, shift):
     return bool(len(self_intersections(Mesh.trusted(mesh.vertices, mesh.faces[near]))))
 
 
-def _weld(mesh, tol, kwargs):
-    """``mesh`` with its vertex clusters closer than ``tol`` merged and (F,) which of its
-    faces moved, or None if that does not leave a closed, oriented surface."""
+def _weld(mesh, tol):
+    """``mesh`` with its vertex clusters closer than ``tol`` merged (its parts and
+    attributes kept) and (F,) which of its faces moved, or None if that does not leave
+    a closed, oriented surface."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
@@ -744,7 +882,10 @@ def _weld(mesh, tol, kwargs):
     faces = faces[single]
     moved = (np.bincount(label, minlength=count) > 1)[faces].any(axis=1)
     used, faces = np.unique(faces, return_inverse=True)
-    welded = Mesh(merged[used], faces.reshape(-1, 3), **kwargs)
+    part = None if mesh.face_part is None else mesh.face_part[keep][single]
+    welded = Mesh(merged[used], faces.reshape(-1, 3), face_part=part,
+                  part_names=mesh.part_names if part is not None else (),
+                  attributes=mesh.attributes)
     return (welded, moved) if len(faces) and welded.is_oriented else None
 
 
@@ -771,19 +912,42 @@ def _runs(mask, closed):
     return [((a + shift) % n, (b + shift) % n) for a, b in zip(starts.tolist(), stops.tolist())]
 
 
-def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
-    """Point sets whose convex hulls together make the tube along ``segments``.
+def _units(pipe, segments, joints, overlap=0.0, tongue=0.0, capped=(True, True)):
+    """Point sets whose convex hulls together make the tube along ``segments``: the
+    points of each :func:`_unit_pieces` piece."""
+    return [piece.points for piece in _unit_pieces(pipe, segments, joints, overlap, tongue,
+                                                   capped)]
+
+
+@dataclass(frozen=True)
+class _Piece:
+    """A convex piece of a tube: the hull of ``points`` (K, 3), along the spine ``a ->
+    b`` whose rings nominally have radii ``ra``, ``rb``; past an end it leans out
+    towards that end's ``tip`` (a mitred corner's; the end itself elsewhere). See
+    :func:`~cadpipe.geometry.cover.round_cone_covers`."""
+
+    points: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    ra: float
+    rb: float
+    tip_a: np.ndarray
+    tip_b: np.ndarray
+
+
+def _unit_pieces(pipe, segments, joints, overlap=0.0, tongue=0.0, capped=(True, True)):
+    """The convex pieces (:class:`_Piece`) that together make the tube along ``segments``.
 
     Each segment's unit is its two end rings (a run of nearly straight segments one
     hull of their rings, see :func:`_hull_groups`); at a corner in ``joints`` (beyond
     the miter limit, or a ball joint) the rings there are cut square to the segment
-    instead and a ball
-    (:func:`_ball`) holds the corner. Round caps of an open pipe join the units of
-    its end segments. Where another segment continues a unit, its ring there is
-    pushed ``overlap`` along the unit's own segment, and a ``tongue`` (a fraction of
-    the ring radius) adds the ring shrunk by that fraction and moved as far into the
-    next segment: the hulls then cross their neighbours at steep angles instead of
-    sharing a face (manifold3d may leave a shared face's corners doubled).
+    instead and a ball (:func:`_ball`) holds the corner. Caps of an open pipe join the
+    units of its end segments (at the ends ``capped`` says keep them). Where another
+    segment continues a unit, its ring there is pushed ``overlap`` along the unit's own
+    segment, and a ``tongue`` (a fraction of the ring radius) adds the ring shrunk by
+    that fraction and moved as far into the next segment: the hulls then cross their
+    neighbours at steep angles instead of sharing a face (manifold3d may leave a shared
+    face's corners doubled).
     """
     path = pipe.path
     with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
@@ -794,6 +958,7 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
     at_joint[joints] = True
     directions, centres, lengths = path.directions, path.points, path.segment_lengths
     radii = pipe.ring_radii
+    tips = np.where(at_joint[:, None], centres, _miter_tips(pipe))
 
     def into(p, seg, sign):
         """Ring ``p`` shrunk and moved into segment ``seg`` (``sign``: along or back)."""
@@ -806,15 +971,9 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
         q = (k + 1) % n if p == k else k
         d = directions[k]
         if at_joint[q]:
-            e1 = np.cross(d, np.eye(3)[int(np.argmin(np.abs(d)))])
-            e1 /= np.linalg.norm(e1)
-            offsets = float(radii[p]) * (np.outer(np.cos(2 * np.pi * np.arange(pipe.sides)
-                                                         / pipe.sides), e1)
-                                         + np.outer(np.sin(2 * np.pi * np.arange(pipe.sides)
-                                                           / pipe.sides), np.cross(d, e1)))
-        else:
-            offsets = rings[q] - centres[q]
-            offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
+            return square_rings(centres[p][None], d[None], radii[p:p + 1], pipe.sides)[0]
+        offsets = rings[q] - centres[q]
+        offsets = (offsets - (offsets @ d)[:, None] * d) * (float(radii[p]) / float(radii[q]))
         return centres[p] + offsets
 
     pieces = []
@@ -830,21 +989,131 @@ def _units(pipe, segments, joints, overlap=0.0, tongue=0.0):
                 ends.append(into(p, other % count, sign))
             ends.append(ring + (sign * overlap * inner) * directions[k])
         ends.insert(len(ends) // 2, rings[first + 1:last + 1].reshape(-1, 3))
-        pieces.append(np.concatenate(ends))
+        a, b = first, (last + 1) % n
+        pieces.append(_Piece(np.concatenate(ends), centres[a], centres[b], float(radii[a]),
+                             float(radii[b]), tips[a], tips[b]))
+    # an envelope's ball circumscribes the ball of the path's radius (its rings, those
+    # of the polygon circumscribing that ball's sections, are wider)
+    ball_radii = pipe.envelope_radii if pipe.envelope else radii
     for k in joints.tolist():
-        pieces.append(_ball(centres[k], float(radii[k])))
+        pieces.append(_Piece(_ball(centres[k], float(ball_radii[k])), centres[k], centres[k],
+                             0.0, 0.0, centres[k], centres[k]))
     if not pipe.closed:
-        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
-                                      (n - 1, 1, count - 1, pipe.cap_styles[1])):
-            end_cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+        for row, sign, seg, style, wanted in ((0, -1, 0, pipe.cap_styles[0], capped[0]),
+                                              (n - 1, 1, count - 1, pipe.cap_styles[1], capped[1])):
+            end_cap = cap_axes(pipe._tubes, row, sign, pipe, style) if wanted else None
             if end_cap is not None and seg in set(np.asarray(segments).tolist()):
-                axes, pole = end_cap
-                cap = np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3)
                 inside = into(row, seg, -sign) if tongue else rings[row] - (
                     sign * overlap) * directions[seg]
-                tip = np.empty((0, 3)) if pole is None else pole[None]
-                pieces.append(np.concatenate([rings[row], inside, cap, tip]))
+                pieces.append(_cap_piece(pipe, row, end_cap, [rings[row], inside]))
     return pieces
+
+
+def _cap_piece(pipe, row, cap, rings):
+    """The :class:`_Piece` of an end cap (``cap`` as :func:`cap_axes` gives it) closing
+    ``rings`` at path point ``row``: a round cap is held by a ball about the end, an
+    envelope's flat cap by the capsule to its face."""
+    axes, pole = cap
+    end = pipe.path.points[row]
+    points = np.concatenate([*rings, np.matmul(ring_basis(pipe.sides), axes).reshape(-1, 3),
+                             np.empty((0, 3)) if pole is None else pole[None]])
+    face = end if pole is not None else axes[0, 2]
+    radius = float(pipe.ring_radii[row])
+    return _Piece(points, end, face, radius, radius, end, face)
+
+
+def _miter_tips(pipe):
+    """(N, 3) how far a capsule of the ring radius must run out from each corner point
+    to hold its mitred ring's outside: ``(stretch - 1) rho`` outwards in the bend plane
+    (the ring reaches ``stretch * rho``), but no farther than ``stretch * rho *
+    cos(pi / sides)``, which the ring's polygon always reaches, so the capsule's axis
+    stays inside the tube (the corner point itself where the path runs straight,
+    reverses or ends)."""
+    stretch = pipe.miter_stretch
+    lean = np.where(np.isfinite(stretch), np.minimum(stretch - 1.0, stretch * np.cos(
+        np.pi / pipe.sides)), 0.0) * pipe.ring_radii
+    return pipe.path.points - lean[:, None] * pipe.path.bend_directions
+
+
+def _segment_covers(pipe, segments):
+    """The collision units (starts, ends, start radii, end radii) of the plain tube along
+    ``segments`` (laid out as :meth:`Pipe.surface` lays it out): each segment's unit,
+    the capsules of its mitred corners, its ball joints and the caps of its ends."""
+    n = len(pipe.path)
+    empty = (np.empty((0, 3)), np.empty((0, 3)), np.empty(0), np.empty(0))
+    if not len(segments):
+        return empty
+    centres, radii = pipe.path.points, pipe.ring_radii
+    start_ring, end_ring, joints = laid_rings(pipe)
+    tips = _miter_tips(pipe)
+    joint_units = []
+    for row, (outer, swept) in joints.items():
+        tips[row] = centres[row]
+        reach_ = float(np.linalg.norm(swept[:, outer] - centres[row], axis=2).max())
+        joint_units.append((centres[row], centres[row], reach_, reach_))
+    a, b = np.asarray(segments), (np.asarray(segments) + 1) % n
+    wedge = np.zeros(n)
+    need = np.zeros(n, bool)
+    cones = []
+    for rows in np.array_split(np.arange(len(a)), max(1, len(a) // COVER_BLOCK)):
+        ka, kb = a[rows], b[rows]
+        cone, before, past = round_cone_covers(
+            np.concatenate([start_ring[ka], end_ring[kb]], axis=1), centres[ka], centres[kb],
+            radii[ka], radii[kb], tips[ka], tips[kb])
+        cones.append(cone)
+        for at, (_, radius, needed) in ((ka, before), (kb, past)):
+            np.maximum.at(wedge, at, np.where(needed, radius, 0.0))
+            need[at] |= needed
+    corner = np.flatnonzero(need)
+    units = [tuple(np.concatenate([c[k] for c in cones]) for k in range(4)),
+             (centres[corner], tips[corner], wedge[corner], wedge[corner])]
+    if joint_units:
+        units.append(tuple(np.array(v) for v in zip(*joint_units)))
+    if not pipe.closed:
+        caps = []
+        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
+                                      (n - 1, 1, len(pipe.path.segments) - 1,
+                                       pipe.cap_styles[1])):
+            cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+            if cap is not None and seg in set(np.asarray(segments).tolist()):
+                caps.append(_cap_piece(pipe, row, cap, [end_ring[row]]))
+        if caps:
+            units.append(_piece_covers(caps))
+    return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+def laid_rings(pipe):
+    """The rings the plain tube's side is laid out on, as :meth:`Pipe.surface` lays it
+    out: ``(starts, ends, joints)``, (N, sides, 3) the ring each segment leaves from
+    and the one it arrives at (the ring itself, or at a ball joint the joint's last and
+    first ring), and ``{row: (outer, rings)}`` each ball joint (:func:`_joint`)."""
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
+    starts, ends = rings.copy(), rings
+    joints = {}
+    for row in np.flatnonzero(joint_rows_of(pipe._tubes, 0, len(pipe.path) - 1, pipe)).tolist():
+        joints[row] = _joint(pipe._tubes, row, pipe)
+        ends[row], starts[row] = joints[row][1][0], joints[row][1][-1]
+    return starts, ends, joints
+
+
+def _piece_covers(pieces):
+    """The collision units of convex pieces (:class:`_Piece`): their round cone covers
+    (:func:`~cadpipe.geometry.cover.round_cone_covers`), one piece at a time."""
+    units = []
+    for piece in pieces:
+        cone, before, past = round_cone_covers(
+            piece.points[None], piece.a[None], piece.b[None], np.array([piece.ra]),
+            np.array([piece.rb]), piece.tip_a[None], piece.tip_b[None])
+        units.append(cone)
+        for centre, (tip, radius, needed) in ((piece.a, before), (piece.b, past)):
+            if needed[0]:
+                units.append((centre[None], tip, radius, radius))
+    return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+#: segments whose covers are computed at once (bounds the memory of their points)
+COVER_BLOCK = 4096
 
 
 def _hull_groups(pipe, segments, at_joint):
@@ -882,10 +1151,12 @@ def _ball(centre, radius):
     return centre + (BALL_REACH * radius) * unit
 
 
-def tubes_of(pipes):
-    """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes` batch."""
+def tubes_of(pipes, ring_radii=None):
+    """The pipes' rings, frames and checks as one :class:`~cadpipe.geometry.rings.Tubes`
+    batch (``ring_radii``: per pipe, instead of their own)."""
     return Tubes(polylines([p.path for p in pipes]),
-                 np.concatenate([p.ring_radii for p in pipes]),
+                 np.concatenate([p.ring_radii for p in pipes] if ring_radii is None
+                                else ring_radii),
                  [p.sides for p in pipes],
                  [p.miter_limit if p.corners == "miter" else np.inf for p in pipes],
                  patent=[p.frame == "patent" for p in pipes],
@@ -942,10 +1213,11 @@ def _cap_reach(pipe, style, sign):
 
 
 def _end_radius(pipe, sign):
-    return float(pipe.radii[0 if sign < 0 else -1])
+    return float(pipe.envelope_radii[0 if sign < 0 else -1])
 
 
-def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None):
+def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, windows=None,
+                      cut=None):
     """Lay out the pipes (``tubes``' groups, in order) in ``surface``: their rings, side
     faces, ball joints and the requested caps (see :meth:`Pipe.surface`).
 
@@ -953,7 +1225,8 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, 
     segments ``first..last`` of a pipe (around a closed one they may wrap, ``last <
     first``): the same rings, joints and caps, closed by a flat fan on the ring where the
     window cuts the tube. The clean pieces of a swept solid are built here, as the
-    whole pipe is, so no piece can miss a joint or a cap.
+    whole pipe is, so no piece can miss a joint or a cap. ``cut`` (per pipe ``(start,
+    end)`` bools) closes those of its own ends by a flat fan too, instead of its cap.
 
     Returns the vertex index of each pipe's first and last ring laid out (its own, not a
     cap's).
@@ -975,7 +1248,9 @@ def add_pipe_surfaces(surface, tubes, pipes, *, cap_start, cap_end, parts=None, 
         rolls.append(roll)
         rows_of.append(rows)
         closed.append(pipe.closed and window is None)
-        ends.append((not pipe.closed and rows[0] == first, not pipe.closed and rows[-1] == last))
+        cuts = (False, False) if cut is None else cut[g]
+        ends.append((not pipe.closed and rows[0] == first and not cuts[0],
+                     not pipe.closed and rows[-1] == last and not cuts[1]))
     # caps: at most the two ends of a chain, or a lone pipe's; a cut end is a flat fan
     capped = [g for g in range(len(pipes)) if (cap_start[g] or cap_end[g]) and not closed[g]]
     caps, rings_before = {}, np.zeros(len(pipes), np.int64)
@@ -1048,14 +1323,22 @@ def _window_axes(tubes, rows, shift, sides):
 
 # -- ball joints (corners="round") -------------------------------------------------
 def joint_rows_of(tubes, first, last, pipe):
-    """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) get a ball
-    joint: with ``corners="round"`` (and no envelope: a joint's faces beside the bend
-    axis fan from one unswept vertex and cut across the ball, so an envelope keeps
-    its miter joints, which hold every ball on the path), the corners whose miter
-    tip would stick out farther than the ring polygon's own chordal deviation,
-    ``stretch - 1 > 1 - cos(pi / sides)``; gentler corners keep their miter, which
-    already holds the corner's ball."""
-    if pipe.corners != "round" or pipe.envelope:
+    """(n,) bool: which of ``pipe``'s rings (tube rows ``first..last``) are laid out as
+    a ball joint (:func:`_joint`): with ``corners="round"`` and no envelope, the
+    corners that :func:`round_corner_rows` names. An envelope's round corners are
+    balls that circumscribe the ball of the path's radius, united with the segments
+    cut square at the corner (see :meth:`Pipe._swept_plan`): the swept joint's faces
+    beside the bend axis fan from one unswept vertex and would cut across that ball."""
+    rows = round_corner_rows(tubes, first, last, pipe)
+    return rows & (not pipe.envelope)
+
+
+def round_corner_rows(tubes, first, last, pipe):
+    """(n,) bool: with ``corners="round"``, the corners of ``pipe`` (tube rows
+    ``first..last``) whose miter tip would stick out farther than the ring polygon's
+    own chordal deviation, ``stretch - 1 > 1 - cos(pi / sides)``: they become ball
+    joints; gentler corners keep their miter, which already holds the corner's ball."""
+    if pipe.corners != "round":
         return np.zeros(last - first + 1, bool)
     return tubes.miter_stretch[first:last + 1] - 1.0 > 1.0 - np.cos(np.pi / pipe.sides)
 
@@ -1140,7 +1423,15 @@ def _add_jointed_run(surface, tubes, pipe, run, rows, closed, seam_shift, part):
         lower = np.vstack([lower, np.roll(table[:1], -seam_shift, axis=1)])
     a, b = upper, np.roll(upper, -1, axis=1)
     c, d = lower, np.roll(lower, -1, axis=1)
-    faces = np.stack([np.stack([a, b, c], -1), np.stack([b, d, c], -1)], axis=2).reshape(-1, 3)
+    # a swept quad is not flat: split it along the diagonal that folds outwards, so
+    # both triangles lie outside the band between its rings (an envelope's joint must
+    # not cut into the ball it holds)
+    at = [vertices[v - first] for v in (a, b, c, d)]
+    fold = np.einsum("...i,...i->...", np.cross(at[1] - at[0], at[2] - at[0]), at[3] - at[0])
+    flip = (fold > 0)[..., None]
+    faces = np.stack([np.where(flip, np.stack([a, b, d], -1), np.stack([a, b, c], -1)),
+                      np.where(flip, np.stack([a, d, c], -1), np.stack([b, d, c], -1))],
+                     axis=2).reshape(-1, 3)
     faces = faces[(faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2])
                   & (faces[:, 0] != faces[:, 2])]
     surface.add_vertices(len(vertices), lambda out: np.copyto(out, vertices))

@@ -13,6 +13,7 @@ import numpy as np
 from cadpipe.geometry import buffers, clearance
 from cadpipe._vec import cross, dot
 from cadpipe.geometry.frames import frames
+from cadpipe.geometry.path import REVERSAL
 from cadpipe.geometry.ragged import blocks
 
 
@@ -24,6 +25,19 @@ def ring_basis(sides):
     basis = np.stack([np.cos(a), np.sin(a), np.ones_like(a)], axis=1)
     basis.flags.writeable = False
     return basis
+
+
+def square_rings(centres, directions, radii, sides):
+    """(P, sides, 3) regular polygons of circumradius ``radii`` (P,) about ``centres``
+    (P, 3), in the planes across the unit ``directions`` (P, 3): a tube's section cut
+    square to its segment, where no ring of its own is there (a ball joint's)."""
+    d = np.asarray(directions, np.float64)
+    helper = np.zeros_like(d)
+    helper[np.arange(len(d)), np.argmin(np.abs(d), axis=1)] = 1.0
+    e1 = np.cross(d, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    axes = np.stack([e1 * radii[:, None], np.cross(d, e1) * radii[:, None], centres], axis=1)
+    return np.matmul(ring_basis(sides), axes)
 
 
 class Tubes:
@@ -51,9 +65,16 @@ class Tubes:
         self._frame_settings = dict(patent=patent, normals=normals, end_normals=end_normals,
                                     gentle=gentle)
 
+    def with_radii(self, ring_radii):
+        """These tubes with other ring radii: the same paths and frames (a bore's)."""
+        out = Tubes(self.lines, ring_radii, self.sides, self.miter_limit,
+                    **self._frame_settings)
+        if "_frames" in self.__dict__:
+            out.__dict__["_frames"] = self._frames
+        return out
+
     @cached_property
     def _frames(self):
-        self.lines.require_no_folds()
         return frames(self.lines, self.lines.tangents, symmetry=2 * np.pi / self.sides,
                       **self._frame_settings)
 
@@ -73,13 +94,22 @@ class Tubes:
         return self.lines.miter_stretch
 
     @cached_property
+    def over_limit(self):
+        """(N,) True at corners beyond their tube's miter limit, and wherever a path
+        reverses: these turn round in a ball joint (the swept solid), not a miter."""
+        lines = self.lines
+        return (lines.miter_stretch > self.miter_limit[self.groups.index]) | (
+            lines.turning_angles > REVERSAL)
+
+    @cached_property
     def axes(self):
         """(N, 3, 3) per ring: the two vectors that map ``(cos a, sin a)`` to a vertex
         offset, then the ring's centre (see :func:`ring_basis`).
 
         Each ring is the circle of ``ring_radii`` in the plane normal to the
         tangent, stretched by :attr:`miter_stretch` along the bend direction so that
-        it lies on both adjacent segments' cylinders.
+        it lies on both adjacent segments' cylinders. Where the path reverses the
+        ring is left unstretched: it is never laid out (a ball joint turns the tube).
         """
         lines = self.lines
         out = buffers.empty((self.groups.size, 3, 3))
@@ -87,7 +117,8 @@ class Tubes:
             n = self.normals[:, rows]
             b = cross(lines.tangents[:, rows], n, 0)
             m = lines.bend_directions[:, rows]
-            extra = lines.miter_stretch[rows] - 1.0
+            stretch = lines.miter_stretch[rows]
+            extra = np.where(np.isfinite(stretch), stretch, 1.0) - 1.0
             r = self.ring_radii[rows]
             out[rows, 0] = ((n + extra * dot(n, m, 0) * m) * r).T
             out[rows, 1] = ((b + extra * dot(b, m, 0) * m) * r).T

@@ -25,7 +25,7 @@ from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Polylines
-from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, envelope_factor, tubes_of
+from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, hull_solid, tubes_of, welded_solid
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import Tubes
 
@@ -72,10 +72,11 @@ def splice(*pipes: Pipe, transition: str = "lcm", closed: bool = False) -> Mesh:
     Pieces that cross each other (a pipe running through another, a joint) are
     united through manifold3d, as a single pipe that overlaps itself becomes its
     swept solid: the user asked for one solid along these paths, and their union is
-    it. Pieces are checked against each other through boxes of pieces, then of
-    triangles, so a clean chain is returned stitched as it is. A chain with a pipe
-    made with ``strict=True`` refuses instead, with a :class:`GeometryError` naming
-    the pieces.
+    it. A pipe that overlaps itself is its swept solid in the chain too (cut flat
+    where a transition goes on). Pieces are checked against each other through boxes
+    of pieces, then of segments, so a clean chain is returned stitched as it is. A
+    chain with a pipe made with ``strict=True`` refuses instead, with a
+    :class:`GeometryError` naming the pieces (or the pipe that overlaps itself).
 
     All pipes are built as one batch, and all transitions as another
     (:class:`~cadpipe.geometry.rings.Tubes`): a chain of a thousand pipes costs a few numpy
@@ -147,7 +148,6 @@ def make_room(pipes, closed=False, transition="lcm"):
     while True:
         trimmed, tubes = _room_for_transitions(pipes, tubes_of(pipes), before[~joint],
                                                after[~joint])
-        _check_pipes(tubes)
         bridges, bent = _transition_tubes(tubes, before[~joint], after[~joint], transition,
                                           check=True)
         if not bent.any():
@@ -155,11 +155,19 @@ def make_room(pipes, closed=False, transition="lcm"):
         joint[np.flatnonzero(~joint)[bent]] = True
 
 
-def _check_pipes(tubes):
-    for i, problems in enumerate(tubes.self_intersection_findings()):
-        if problems:
-            raise GeometryError(f"splice: pipe {i} intersects itself: {problems[0]}",
-                                key="pipes", index=i)
+def _pipe_folds(pipes, tubes, cap_start, cap_end):
+    """Per pipe, where its tube folds (:class:`~cadpipe.geometry.clearance.Folds`), its
+    caps included where it keeps them; a pipe made with ``strict=True`` that folds is
+    a :class:`GeometryError` (the others become their swept solids)."""
+    folds = [pipe._with_cap_folds(f, (start, end)) for pipe, f, start, end in
+             zip(pipes, tubes.folds(), cap_start, cap_end)]
+    for i, (pipe, f) in enumerate(zip(pipes, folds)):
+        if f and pipe.strict:
+            raise GeometryError(f"splice: pipe {i} intersects itself: {f.messages[0]}; "
+                                "smooth its path, reduce its radius, or build its swept "
+                                "solid (strict=False)", key="pipes", index=i,
+                                fix={"strict": False})
+    return folds
 
 
 def _room_for_transitions(pipes, tubes, before, after):
@@ -187,16 +195,14 @@ def _touching(tubes, before, after):
     return gap < 0.5 * np.minimum(tubes.ring_radii[end], tubes.ring_radii[start])
 
 
-def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridges=None):
+def chain_mesh(pipes, joint, transition, closed, tubes=None, bridges=None):
     """The solid of a chain whose junctions are planned (:func:`make_room`): stitched
     pipes and transitions, or, where a joint joins them or pieces cross, the union
     of the pieces.
 
-    ``bore_of``: ``(outer pipes, wall)`` when ``pipes`` are the bores of those (a
-    hollow chain's): each bore transition then lies ``wall`` inside the outer one
-    across its faces (see :func:`_transition_tubes`). ``tubes``, ``bridges``: the
-    pipes' and transitions' batches if already made (:class:`ChainPlan`; caps do not
-    change them)."""
+    ``tubes``, ``bridges``: the pipes' and transitions' batches if already made
+    (:class:`ChainPlan`; caps do not change them; a hollow chain's bore passes its
+    transitions, see :func:`bore_of_chain`)."""
     strict = any(getattr(p, "strict", False) for p in pipes)
     before, after = _junctions(len(pipes), closed)
     last = len(pipes) - 1
@@ -209,14 +215,8 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridg
              for i, p in enumerate(pipes)]
     tubes = tubes_of(pipes) if tubes is None else tubes
     sides = tubes.sides
-    outer = None
-    if bore_of is not None:
-        outer_tubes = tubes_of(bore_of[0])
-        outer = (outer_tubes.ring_radii[outer_tubes.groups.last[before[~joint]]],
-                 outer_tubes.ring_radii[outer_tubes.groups.first[after[~joint]]], bore_of[1])
     if bridges is None:
-        bridges = _transition_tubes(tubes, before[~joint], after[~joint], transition,
-                                    outer)[0]
+        bridges = _transition_tubes(tubes, before[~joint], after[~joint], transition)[0]
 
     surface = Surface()
     ends = add_pipe_surfaces(surface, tubes, pipes, parts=[surface.part(f"pipe{i}")
@@ -228,15 +228,18 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridg
     balls = [surface.part(f"joint{b}") for b in before[joint].tolist()]
     vertices, faces, face_part = surface.build()
     attributes = {"kind": "chain", "parts": len(surface.part_names)}
-    crossing = [] if joint.any() else _crossing_pieces(
+    folds = _pipe_folds(pipes, tubes, cap_start, cap_end)
+    swept = [i for i, f in enumerate(folds) if f]
+    crossing = [] if joint.any() or swept else _crossing_pieces(
         _chain_axes(tubes, bridges, before, pipes, closed, surface), closed)
-    if not crossing and not joint.any():
+    if not crossing and not joint.any() and not swept:
         return Mesh.trusted(vertices, faces, face_part=face_part,
                             part_names=surface.part_names, attributes=attributes)
     names = surface.part_names
     joined = [f"pipe{b} and pipe{a} (a ball joint)"
               for b, a in zip(before[joint].tolist(), after[joint].tolist())]
-    merged = [f"{names[i]} and {names[j]} (they cross)" for i, j in crossing] + joined
+    merged = [f"pipe{i} (its swept solid: it overlaps itself)" for i in swept] + [
+        f"{names[i]} and {names[j]} (they cross)" for i, j in crossing] + joined
     if strict:
         raise GeometryError(f"splice: {merged[0]}" + (f" (and {len(merged) - 1} more)"
                                                       if len(merged) > 1 else "")
@@ -247,8 +250,10 @@ def chain_mesh(pipes, joint, transition, closed, bore_of=None, tubes=None, bridg
         vertices, faces, face_part = _close_cuts(vertices, faces, face_part, cuts)
     joints = [_ball_joint(tubes, b, a) for b, a in zip(before[joint].tolist(),
                                                         after[joint].tolist())]
+    solids = {surface.part(f"pipe{i}"): Mesh.from_manifold(pipes[i]._swept_solid(
+        folds[i], (cap_start[i], cap_end[i]))[0]) for i in swept}
     return united(vertices, faces, face_part, names, joints, balls,
-                  {**attributes, "merged": "; ".join(merged)})
+                  {**attributes, "merged": "; ".join(merged)}, solids)
 
 
 def _flat_at(pipe, start, end):
@@ -258,7 +263,7 @@ def _flat_at(pipe, start, end):
     return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
 
-def _transition_tubes(tubes, before, after, transition, outer=None, check=False):
+def _transition_tubes(tubes, before, after, transition, check=False):
     """The transitions from each pipe's end to the next one's start, as one batch, and
     which of them would fold.
 
@@ -266,11 +271,6 @@ def _transition_tubes(tubes, before, after, transition, outer=None, check=False)
     one to the other; its frames start from the first pipe's end ring and end on the
     second's start ring (up to a whole ``2*pi/sides`` step). Its end rings are the
     pipes' own, so only its inner rings are used.
-
-    ``outer``: ``(outer end radii, outer start radii, wall)`` for the bores of a hollow
-    chain: each inner ring is then also at least ``wall`` inside the outer
-    transition's across its faces: ``wall / cos(pi / n)`` for the fewest sides n of the
-    two pipes and the transition, over the cosine of the outer transition's taper.
 
     Returns
     -------
@@ -291,9 +291,7 @@ def _transition_tubes(tubes, before, after, transition, outer=None, check=False)
     t1, t2 = lines.directions[:, end], lines.directions[:, start]
     chord = norm(s - e, 0)
     r1, r2 = tubes.ring_radii[end], tubes.ring_radii[start]
-    # a bore's transition has its outer one's rings, so their faces stay parallel
-    rings = RINGS_PER_RADIUS * chord / (np.minimum(r1, r2) if outer is None
-                                        else np.minimum(outer[0], outer[1]))
+    rings = RINGS_PER_RADIUS * chord / np.minimum(r1, r2)
     limits.check("max_triangles", float(np.sum(2 * rings * sides)),
                  f"the transitions across gaps of up to {chord.max():.6g}", key="pipes")
     count = np.maximum(MIN_RINGS + 1, np.ceil(rings).astype(np.int64))
@@ -309,12 +307,6 @@ def _transition_tubes(tubes, before, after, transition, outer=None, check=False)
     ease = 3 * u**2 - 2 * u**3
     radii = spread(r1) + spread(r2 - r1) * ease
     bridges = Polylines(points, curves)
-    if outer is not None:
-        radii = np.minimum(radii, _bore_radii(bridges, outer[0], outer[1],
-                                              (tubes.sides[before], tubes.sides[after]), ease,
-                                              outer[2] * envelope_factor(np.minimum(
-                                                  sides, np.minimum(tubes.sides[before],
-                                                                    tubes.sides[after])))))
     extent = np.max(np.maximum.reduceat(points, curves.first, axis=1)
                     - np.minimum.reduceat(points, curves.first, axis=1), axis=0)
     tolerance = 1e-9 * np.maximum(extent, 1.0)                  # as Path drops duplicates
@@ -332,29 +324,6 @@ def _transition_tubes(tubes, before, after, transition, outer=None, check=False)
         return bridges, short
     bent = np.array([bool(f) for f in bridges.self_intersection_findings()])
     return bridges, bent | _ends_fold(bridges, t1, t2)
-
-
-def _bore_radii(bridges, r1, r2, sides, ease, inset):
-    """(N,) ring radii ``inset`` (per transition) inside the outer transition eased from
-    ``r1`` to ``r2``, more by the cosine of its taper (the steeper segment at each
-    ring), as :func:`cadpipe.solids.hollow.inset` does along a pipe."""
-    groups = bridges.groups
-    outer = groups.spread(r1) + groups.spread(r2 - r1) * ease
-    slope = np.abs(groups.following(outer) - outer) / np.where(
-        bridges.segment_lengths > 0, bridges.segment_lengths, 1.0)
-    slope[groups.last] = slope[groups.last - 1]
-    steepest = np.maximum(slope, np.r_[slope[:1], slope[:-1]])
-    steepest[groups.first] = slope[groups.first]
-    # the stitches from a pipe's n-gon to the transition's rings lean from the pipe's
-    # flat faces (inradius) out to the transition's vertices
-    for inner, pipe_radius, pipe_sides, segment in ((groups.first + 1, r1, sides[0],
-                                                     groups.first),
-                                                    (groups.last - 1, r2, sides[1],
-                                                     groups.last - 1)):
-        lean = np.abs(outer[inner] - pipe_radius * np.cos(np.pi / pipe_sides)) \
-            / bridges.segment_lengths[segment]
-        steepest[inner] = np.maximum(steepest[inner], lean)
-    return outer - groups.spread(inset) * np.hypot(1.0, steepest)
 
 
 def _ends_fold(bridges, t1, t2):
@@ -385,17 +354,59 @@ def _ends_fold(bridges, t1, t2):
     return bent
 
 
+def _blocks(bridges, n1, n2, mode):
+    """Each transition's inner rings, rows ``first..last - 1``: with ``merge`` between
+    pipes of ``n1`` and ``n2`` sides (``two``), n1-gon rings up to ``cut`` and n3-gon
+    rings (the transition's own sides) from there; else all n3-gon rings."""
+    groups = bridges.groups
+    first, last = groups.first + 1, groups.last
+    two = (n1 != n2) & (mode == "merge")
+    return first, np.where(two, first + (last - first) // 2, first), last, two
+
+
+def bore_of_chain(tubes, bridges, before, after, mode, wall):
+    """A hollow chain's bore, where its pipes meet transitions: ``(pipe_scales,
+    bore_bridges)``, (P, 2) the most each pipe's end rings (first, last) may be scaled,
+    and the transitions' bore (the outer ``bridges`` with scaled rings).
+
+    Every ring of the outer chain around a transition (the pipe's end ring, the
+    transition's rings, the next pipe's start ring) is scaled so that each bore vertex
+    lies ``wall`` inside every face plane of the outer bands beside it (the stitches
+    between ring sizes lean both ways), as
+    :func:`~cadpipe.solids.hollow.bore_scales` does along a pipe."""
+    from cadpipe.geometry.bands import band_planes, wall_scales
+
+    pipe_scales = np.full((len(tubes.groups), 2), np.inf)
+    ring_scales = np.ones(bridges.groups.size)
+    n1, n2, n3 = tubes.sides[before], tubes.sides[after], bridges.sides
+    first, cut, last, two = _blocks(bridges, n1, n2, mode)
+    for t, (b, a) in enumerate(zip(before.tolist(), after.tolist())):
+        sizes = np.where(np.arange(first[t], last[t]) < cut[t], n1[t], n3[t])
+        chain = ([(tubes, int(tubes.groups.last[b]), int(n1[t]))]
+                 + [(bridges, row, int(n)) for row, n in zip(range(first[t], last[t]),
+                                                             sizes.tolist())]
+                 + [(tubes, int(tubes.groups.first[a]), int(n2[t]))])
+        scale = np.full(len(chain), np.inf)
+        for k, ((ta, ra, na), (tb, rb, nb)) in enumerate(zip(chain[:-1], chain[1:])):
+            offset = -bridges.seam_shift[t] * nb / n3[t] if k == len(chain) - 2 else 0.0
+            normals, offsets = band_planes(ta.rings([ra], na), tb.rings([rb], nb), offset)
+            centres = np.stack([ta.axes[ra, 2], tb.axes[rb, 2]])[None]
+            for j, (tube, row, n) in ((k, chain[k]), (k + 1, chain[k + 1])):
+                scale[j] = min(scale[j], wall_scales(normals, offsets, tube.axes[[row]], n,
+                                                     wall, centres)[0])
+        pipe_scales[b, 1] = min(pipe_scales[b, 1], scale[0])
+        pipe_scales[a, 0] = min(pipe_scales[a, 0], scale[-1])
+        ring_scales[first[t]:last[t]] = scale[1:-1]
+    return pipe_scales, bridges.with_radii(bridges.ring_radii * ring_scales)
+
+
 def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
     """Lay out each transition's inner rings, their side faces and the stitches that
     join them to each other and to the pipes' end rings (``ends``: each pipe's first
     and last ring)."""
-    groups = bridges.groups
     part = np.array([surface.part(f"transition{a}") for a in before.tolist()])
     n1, n2, n3 = pipe_sides[before], pipe_sides[after], bridges.sides
-    first, last = groups.first + 1, groups.last                       # inner rings
-    # merge: n1-gon rings for the first half, n2-gon after; lcm: all lcm-gon rings
-    two = (n1 != n2) & (mode == "merge")
-    cut = np.where(two, first + (last - first) // 2, first)
+    first, cut, last, two = _blocks(bridges, n1, n2, mode)
     # runs of rings: the n1-gon blocks of merged transitions, then every n3-gon block
     lo = np.concatenate([first[two], cut])
     hi = np.concatenate([cut[two], last])
@@ -585,24 +596,27 @@ def _ball_joint(tubes, b, a):
                            for row in rows])
 
 
-def united(vertices, faces, face_part, names, hulls, hull_parts, attributes):
+def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pieces=None):
     """The union through manifold3d of the closed pieces of a surface (its faces by part)
     and of the convex hulls of ``hulls`` (point sets, parts ``hull_parts``), faces
-    still labelled by the piece they came from."""
+    still labelled by the piece they came from, welded at float32 precision as a
+    swept pipe is (:func:`~cadpipe.geometry.pipe.welded_solid`). ``pieces`` ({part: Mesh}) replaces
+    those parts' faces by a closed mesh of their own (a pipe's swept solid)."""
     import manifold3d
 
     from cadpipe.solids.booleans import reserve_ids
 
+    pieces = {} if pieces is None else pieces
     ids = list(reserve_ids(len(names)))
     order = np.argsort(face_part, kind="stable")
     bounds = np.searchsorted(face_part[order], np.arange(len(names) + 1))
-    solids = []
+    solids = [piece.to_manifold(names[k], ids[k]) for k, piece in pieces.items()]
     for k in np.flatnonzero(np.diff(bounds) > 0).tolist():
+        if k in pieces:
+            continue
         used, local = np.unique(faces[order[bounds[k]:bounds[k + 1]]], return_inverse=True)
         solids.append(Mesh.trusted(vertices[used], local.reshape(-1, 3))
                       .to_manifold(names[k], ids[k]))
-    for points, k in zip(hulls, hull_parts):
-        hull = Mesh.from_manifold(manifold3d.Manifold.hull_points(points))
-        solids.append(hull.to_manifold(names[k], ids[k]))
+    solids += [hull_solid(points, names[k], ids[k]) for points, k in zip(hulls, hull_parts)]
     solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
-    return Mesh.from_manifold(solid, dict(zip(ids, names)), attributes=attributes)
+    return welded_solid(solid, dict(zip(ids, names)), attributes=attributes)

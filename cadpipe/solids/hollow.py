@@ -22,9 +22,11 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_flag, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
+from cadpipe.geometry.bands import band_planes, wall_scales
+from cadpipe.geometry.clearance import local_folds
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
-from cadpipe.geometry.pipe import Pipe, envelope_factor
+from cadpipe.geometry.pipe import Pipe, envelope_factor, laid_rings
 from cadpipe.geometry.splice import TRANSITIONS, chain_members
 
 END_STYLES = ("open", "closed")
@@ -60,20 +62,48 @@ def mouths(pipe, start="open", end="open"):
     return pipe if styles == pipe.cap_styles else pipe.replace(caps=styles, sides=pipe.sides)
 
 
-def inset(pipe, wall):
-    """(N,) how much smaller each bore ring is than ``pipe``'s so that every flat face of
-    the bore lies ``wall`` inside the outer face parallel to it: ``wall / cos(pi /
-    sides)`` (the ring's vertices are farther out than its faces), divided by the
-    cosine of the taper where the radius changes along the path (a frustum's face
-    leans by its taper angle; take the steeper segment at each ring)."""
-    slope = np.abs(np.diff(pipe.ring_radii)) / pipe.path.segment_lengths[:len(pipe.path) - 1]
-    if pipe.closed:
-        slope = np.append(slope, abs(pipe.ring_radii[0] - pipe.ring_radii[-1])
-                          / pipe.path.segment_lengths[-1])
-        steepest = np.maximum(slope, np.roll(slope, 1))
-    else:
-        steepest = np.maximum(np.r_[slope[:1], slope], np.r_[slope, slope[-1:]])
-    return wall * envelope_factor(pipe.sides) * np.hypot(1.0, steepest)
+def bore_scales(pipe, wall):
+    """(N,) the scale of each of ``pipe``'s rings about its centre that puts every vertex
+    of the bore's ring ``wall`` inside each face plane of the bands beside it
+    (:func:`~cadpipe.geometry.bands.wall_scales`): then every bore face lies ``wall``
+    inside the outer faces of its segment, whatever leans them (a taper, a mitred ring
+    on a taper, a twist). On a straight duct that is ``1 - wall / (rho cos(pi / n))``:
+    the wall across the flat faces."""
+    tubes = pipe._tubes
+    count = len(pipe.path)
+    starts, ends, joints = laid_rings(pipe)
+    first = np.arange(len(pipe.path.segments))
+    second = (first + 1) % count
+    ahead = ends[second]
+    if pipe.closed:                                     # the seam meets ring 0 turned
+        ahead[-1] = np.roll(ahead[-1], -pipe.seam_shift, axis=0)
+    normals, offsets = band_planes(starts[first], ahead)
+    # bands that fold, or end at a corner beyond the miter limit, are built from their
+    # convex units (the swept solid): their ring planes say nothing there
+    swept = local_folds(tubes)[0][first] | tubes.over_limit[first] | tubes.over_limit[second]
+    offsets = np.where(swept[:, None], np.inf, offsets)
+    scales = np.full(count, np.inf)
+    centres = np.stack([tubes.axes[first, 2], tubes.axes[second, 2]], axis=1)
+    for rows in (first, second):
+        np.minimum.at(scales, rows, wall_scales(normals, offsets, tubes.axes[rows],
+                                                pipe.sides, wall, centres))
+    # a ball joint's bore is its rings scaled about the corner: every vertex of them a
+    # wall inside the planes of the joint's own faces and of the bands beside it
+    centres = pipe.path.points
+    for row, (_, rings) in joints.items():
+        vertices = rings.reshape(-1, 3) - centres[row]
+        for normal, offset in (band_planes(rings[:-1], rings[1:]),
+                               (normals[[row - 1, row % len(first)]],
+                                offsets[[row - 1, row % len(first)]])):
+            normal, offset = normal.reshape(-1, 3), offset.reshape(-1)
+            reach = (normal @ vertices.T).max(axis=1)
+            room = offset - wall - normal @ centres[row]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                scales[row] = min(scales[row], float(np.where(reach > 0, room / reach,
+                                                              np.inf).min()))
+    # a ring only of swept bands: the wall across a straight duct's faces
+    plain = 1 - wall * envelope_factor(pipe.sides) / tubes.ring_radii
+    return np.where(np.isfinite(scales), scales, plain)
 
 
 def bore(pipe, wall, start="open", end="open"):
@@ -81,8 +111,8 @@ def bore(pipe, wall, start="open", end="open"):
     leave walls ``wall`` thick across the flat faces.
 
     Same path, sides, frames and caps, rings aligned with the outer rings and
-    :func:`inset` smaller, so each flat face of the bore lies ``wall`` inside the
-    outer face parallel to it, on tapers too (the vertices are farther apart). Per end:
+    scaled by :func:`bore_scales`, so each face of the bore lies ``wall`` inside the
+    outer faces of its segment, on tapers and mitred corners too. Per end:
     ``"open"`` runs the bore ``wall`` past the outer solid's end, ``"closed"`` stops it
     ``wall`` short of a flat cap (a round cap gets its own round cap inside),
     ``"flush"`` ends it with the pipe (where a splice continues it).
@@ -92,7 +122,7 @@ def bore(pipe, wall, start="open", end="open"):
            else reach - wall if style == "flat" else 0.0
            for e, style, reach in zip(ends, pipe.cap_styles, pipe.cap_reach)]
     path = pipe.path
-    radii = pipe.ring_radii - inset(pipe, wall)
+    radii = pipe.ring_radii * bore_scales(pipe, wall)
     if radii.min() <= 0:
         raise InputError(f"{wall:g} leaves no bore where the pipe tapers steeply (path point "
                          f"{int(np.argmin(radii))}); use a thinner wall", key="wall")
@@ -107,13 +137,18 @@ def bore(pipe, wall, start="open", end="open"):
     cut = [max(-r, 0.0) for r in run]
     for k, (e, style) in enumerate(zip(ends, pipe.cap_styles)):
         if e == "closed" and style == "round" and not pipe.closed:
-            # on a taper the pulled-back cap has another radius: pull again until it fits
+            # on a taper the pulled-back cap has another radius: pull again until it
+            # fits; the shortfalls shrink geometrically, so each pull takes the rest of
+            # their series too (a pull too far only thickens the end wall)
+            before = None
             for _ in range(ROOM_STEPS):
                 trimmed = inner.trimmed(*[cut[k] if j == k else 0.0 for j in range(2)])
                 room = _round_end_room(pipe, trimmed, wall, -1 if k == 0 else 1)
                 if room <= 1e-9 * wall:
                     break
-                cut[k] += room
+                ratio = 0.0 if before is None else min(room / before, 0.5)
+                cut[k] += room / (1.0 - ratio)
+                before = room
     if not any(cut):
         return inner
     if sum(cut) >= path.length:
@@ -152,6 +187,18 @@ def _round_end_room(outer, inner, wall, sign):
     bore_points = _cap_points(inner, sign)
     need = (bore_points @ normal[caps].T).max(axis=0) - offset[caps] + wall
     return float(max(0.0, (need / facing[caps]).max()))
+
+
+def _narrowed_ends(bore_pipe, outer, scales):
+    """``bore_pipe`` with its end rings no wider than ``scales`` (first, last; ``inf``:
+    as it is) times ``outer``'s, where a transition's stitch leans its outer faces in
+    (see :func:`~cadpipe.geometry.splice.bore_of_chain`); its other rings as they are."""
+    radii = np.array(bore_pipe.radii)
+    for row, scale in ((0, scales[0]), (-1, scales[1])):
+        radii[row] = min(radii[row], float(outer.ring_radii[row]) * scale)
+    if np.array_equal(radii, bore_pipe.radii):
+        return bore_pipe
+    return bore_pipe.replace(radius=radii, sides=bore_pipe.sides)
 
 
 class Hollow:
@@ -410,7 +457,7 @@ class HollowChain(Hollow):
         solids, bores : list of Mesh
             ``[the spliced outer pipes]`` and ``[the spliced bores]``.
         """
-        from cadpipe.geometry.splice import chain_mesh, make_room
+        from cadpipe.geometry.splice import _junctions, bore_of_chain, chain_mesh, make_room
 
         plan = make_room(list(self.pipes), self.closed, self.transition)
         outers = list(plan.pipes)
@@ -424,9 +471,15 @@ class HollowChain(Hollow):
                  for i, p in enumerate(outers)]
         if len(outers) == 1 and not self.closed:
             return [outers[0].mesh()], [bores[0].mesh()]
+        bridges = None
+        if plan.bridges is not None:
+            before, after = (j[~plan.joint] for j in _junctions(len(outers), self.closed))
+            ends, bridges = bore_of_chain(plan.tubes, plan.bridges, before, after,
+                                          self.transition, self.wall)
+            bores = [_narrowed_ends(b, o, scales) for b, o, scales in zip(bores, outers, ends)]
         options = {"joint": plan.joint, "transition": self.transition, "closed": self.closed}
         return ([chain_mesh(outers, **options, tubes=plan.tubes, bridges=plan.bridges)],
-                [chain_mesh(bores, **options, bore_of=(outers, self.wall))])
+                [chain_mesh(bores, **options, bridges=bridges)])
 
     @property
     def attributes(self) -> Mapping[str, Any]:
