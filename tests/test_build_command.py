@@ -3,6 +3,7 @@
 import textwrap
 from pathlib import Path as FilePath
 
+import numpy as np
 import pytest
 
 import cadpipe
@@ -118,6 +119,20 @@ def test_plain_progress_is_one_line_per_stage_with_counts(tmp_path, capsys):
                      "cadpipe build: writing b.glb (2/2)",
                      "cadpipe build: summing up "
                      f"{len(cadpipe.load(path).union().faces):,} triangles"]
+
+
+def test_plain_progress_names_the_join_of_a_large_union(tmp_path, capsys):
+    rng = np.random.default_rng(3)
+    rods = "".join(f"[[parts]]\nkind = \"pipe\"\nradius = 0.03\nsides = 6\n"
+                   f"path = {np.round(rng.uniform(0, 1, (2, 3)), 4).tolist()}\n"
+                   for _ in range(70))
+    path = spec(tmp_path, 'name = "rods"\n' + rods)
+    assert main(["build", str(path), "-o", str(tmp_path / "rods.stl")]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines()
+             if line.startswith("cadpipe build: union")]
+    # one group of 70 crossing rods, united in 8 batches, then the batches joined
+    assert lines == ["cadpipe build: union of 70 solids in 1 group",
+                     "cadpipe build: union of 70 solids in 1 group: joining 8 batches"]
 
 
 def test_spec_outputs_reach_every_export_option(tmp_path, capsys):

@@ -170,12 +170,49 @@ def clusters(adds, cuts=None, clips=None):
     return work
 
 
-def combine_cluster(adds, cuts=(), clips=()):
-    """``(union of adds - union of cuts) & every clip``, one ``batch_boolean`` per operation."""
+#: a union of at least this many solids runs in batches, so that its progress can move
+BATCHED_UNION = 64
+
+
+def united(solids, progress=None):
+    """The union of ``solids`` (manifold3d).
+
+    One ``batch_boolean`` for a few (lazy, as manifold3d's operations are). For
+    :data:`BATCHED_UNION` or more, about sqrt(n) batches of neighbours (slabs along
+    the longest side of their boxes) are united one after the other and then
+    joined, and ``progress(done, batches)`` is called after each batch and before
+    the join (``done == batches``): one manifold3d call that runs for a minute
+    shows no progress, and it holds the interpreter. It costs no more (the union
+    of 1,000 crossing pipes: ``benchmarks/bench_build.py``, ``docs/performance.md``).
+    """
     import manifold3d
 
     Manifold, Op = manifold3d.Manifold, manifold3d.OpType
-    piece = adds[0] if len(adds) == 1 else Manifold.batch_boolean(list(adds), Op.Add)
+    solids = list(solids)
+    if len(solids) < BATCHED_UNION:
+        return solids[0] if len(solids) == 1 else Manifold.batch_boolean(solids, Op.Add)
+    boxes = bounding_boxes(solids)
+    centres = boxes.mean(axis=1)
+    axis = int(np.argmax(np.ptp(centres, axis=0)))
+    batches = np.array_split(np.argsort(centres[:, axis], kind="stable"),
+                             round(np.sqrt(len(solids))))
+    pieces = []
+    for done, batch in enumerate(batches, 1):
+        piece = Manifold.batch_boolean([solids[k] for k in batch], Op.Add)
+        piece.num_tri()                              # manifold3d is lazy: work now
+        pieces.append(piece)
+        if progress is not None:
+            progress(done, len(batches))
+    return Manifold.batch_boolean(pieces, Op.Add)
+
+
+def combine_cluster(adds, cuts=(), clips=(), progress=None):
+    """``(union of adds - union of cuts) & every clip``, one ``batch_boolean`` per operation
+    (the union of many adds in batches: :func:`united`, with its ``progress``)."""
+    import manifold3d
+
+    Manifold, Op = manifold3d.Manifold, manifold3d.OpType
+    piece = united(adds, progress)
     if len(cuts):
         piece = Manifold.batch_boolean([piece, *cuts], Op.Subtract)
     if len(clips):
