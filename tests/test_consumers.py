@@ -206,6 +206,35 @@ def test_each_example_usdz_follows_the_arkit_rules(example):
     assert arkit_problems(folder / f"{stem}.usdz") == []
 
 
+# -- MeshLab (pymeshlab) and Blender's PLY colours ---------------------------------------
+@pytest.mark.parametrize("ascii", [False, True])
+def test_meshlab_reads_the_colours_of_a_union_per_face_and_per_vertex(tmp_path, ascii):
+    """Blender's PLY importer reads vertex colours only, MeshLab both: each face's corners
+    must carry its part's colour, so vertices where parts meet are written once per colour
+    (and only those)."""
+    import pymeshlab
+
+    asm = cadpipe.Assembly(name="cross")
+    asm.add("a", cadpipe.Pipe([[0, 0, 0], [1, 0, 0]], 0.2, sides=12), color="#ff0000")
+    asm.add("b", cadpipe.Pipe([[0.5, -0.5, 0], [0.5, 0.5, 0]], 0.2, sides=12), color="#0000ff")
+    asm.add("c", cadpipe.Pipe([[0.5, 0, -0.5], [0.5, 0, 0.5]], 0.15, sides=8), color="#00ff00")
+    union = asm.union()
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(asm.export(tmp_path / "cross.ply", ascii=ascii)))
+    read = ms.current_mesh()
+    faces, points = read.face_matrix(), read.vertex_matrix()
+    face_rgb = np.round(read.face_color_matrix()[:, :3] * 255)
+    corner_rgb = np.round(read.vertex_color_matrix()[:, :3] * 255)[faces]
+    palette = np.array([[255, 0, 0], [0, 0, 255], [0, 255, 0]])
+    expected = palette[[("a", "b", "c").index(n) for n in union.part_names]][union.face_part]
+    np.testing.assert_array_equal(face_rgb, expected)
+    np.testing.assert_array_equal(corner_rgb, np.repeat(expected[:, None], 3, axis=1))
+    np.testing.assert_array_equal(points[faces], union.triangles.astype(np.float32))
+    # one vertex per (vertex, colour) pair of the union's corners: split only where colours meet
+    pairs = np.unique(np.c_[union.faces.ravel(), np.repeat(union.face_part, 3)], axis=0)
+    assert read.vertex_number() == len(pairs) > len(union.vertices)
+
+
 # -- round trips through cadpipe's own readers ------------------------------------------
 ROUND_TRIP = ("usda", "usdc", "usdz", "glb", "3mf", "obj", "ply", "stl")
 #: formats that store part names (STL and PLY store none)
