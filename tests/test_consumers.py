@@ -31,7 +31,8 @@ SLICER = ["--bed-shape", "0x0,2000x0,2000x2000,0x2000", "--max-print-height", "1
           "--nozzle-diameter", "1", "--layer-height", "0.7", "--first-layer-height", "0.7",
           "--fill-density", "0", "--perimeters", "1", "--skirts", "0",
           "--top-solid-layers", "0", "--bottom-solid-layers", "1"]
-FORMATS = ("stl", "3mf", "glb", "usdz")
+#: every format an example is built into: the printing ones laid out for the bed
+PRINTING, SCENES = ("stl", "3mf"), ("glb", "usdz", "usda", "obj", "ply")
 
 pytestmark = pytest.mark.slow
 
@@ -47,14 +48,13 @@ def demo(tmp_path_factory):
 
 @pytest.fixture(scope="module", params=[p.name for p in EXAMPLES])
 def example(request, tmp_path_factory):
-    """An example spec built into every consumer format (printing ones laid out)."""
+    """An example spec built into every format (printing ones laid out), by two builds."""
     folder = tmp_path_factory.mktemp(FilePath(request.param).stem)
     spec = ROOT / "assets" / "examples" / request.param
     stem = spec.stem
-    for suffix in FORMATS:
-        layout = ["--layout", "print"] if suffix in ("stl", "3mf") else []
-        assert main(["build", str(spec), "-q", "-o", str(folder / f"{stem}.{suffix}"),
-                     *layout]) == 0
+    for formats, layout in ((PRINTING, ["--layout", "print"]), (SCENES, [])):
+        outputs = [arg for suffix in formats for arg in ("-o", str(folder / f"{stem}.{suffix}"))]
+        assert main(["build", str(spec), "-q", *outputs, *layout]) == 0
     return folder, stem
 
 
@@ -88,6 +88,19 @@ def test_demo_parts_stand_on_the_bed_in_millimetres(demo):
     low, high = mesh.bounds
     assert low[2] == pytest.approx(0.0, abs=1e-6)
     assert 100 < (high - low).max() < 2000          # hundreds of mm, not a fraction of one
+
+
+# -- cadpipe check: build never writes a solid that check rejects -------------------------
+def test_check_accepts_every_file_the_demo_writes(demo, capsys):
+    for name in ("parts.stl", "parts.3mf", "scene.glb", "scene.usda", "scene.usdz"):
+        assert main(["check", str(demo / name)]) == 0, (name, capsys.readouterr().out)
+
+
+def test_check_accepts_every_file_each_example_builds(example, capsys):
+    folder, stem = example
+    for suffix in PRINTING + SCENES:
+        assert main(["check", str(folder / f"{stem}.{suffix}")]) == 0, \
+            (suffix, capsys.readouterr().out)
 
 
 # -- lib3mf --------------------------------------------------------------------------
