@@ -39,7 +39,6 @@ import numpy as np
 
 import cadpipe
 from cadpipe.io.files import export, load_mesh
-from cadpipe.io.trimesh_formats import _copies_per_label
 from cadpipe.solids.intersect import self_intersections
 from cadpipe.solids.validity import check_mesh
 
@@ -115,6 +114,8 @@ def numpy_split(mesh):
 
 
 def cadpipe_split(mesh):
+    from cadpipe.io.trimesh_formats import _copies_per_label
+
     faces = np.empty(mesh.faces.shape, np.int32)
     return _copies_per_label(mesh.faces, mesh.face_part, len(mesh.vertices), faces), faces
 

@@ -179,13 +179,14 @@ def _is_plain(obj, mesh):
     return mesh.is_oriented and mesh.volume > 0 and mesh.n_bodies == 1
 
 
-def _batch_progress(progress, stage, before, size, total, done, batches):
-    """A group's batches as solids united so far of ``total``; the join of the batches,
-    the group's last manifold3d call, as its own stage."""
-    if done < batches:
+def _batch_progress(progress, stage, before, size, total, done, calls):
+    """A group's batches as solids united so far of ``total``; then the joins of the
+    batches, level by level, as their own stage (joins done of all)."""
+    batches = (calls + 1) // 2
+    if done <= batches:
         progress(stage, before + size * done // batches, total)
     else:
-        progress(f"{stage}: joining {batches} batches", before + size, total)
+        progress(f"{stage}: joining {batches} batches", done - batches, batches - 1)
 
 
 class Assembly:
@@ -379,8 +380,9 @@ class Assembly:
             ``"union of <n> solids in <k> groups"`` (solids united so far of ``n``,
             in groups of overlapping boxes; none when no boxes overlap: a group of
             many is united in batches, so this moves within one group) and
-            ``"union of ... : joining <b> batches"`` (a group's last boolean), so a
-            display can name the stage running.
+            ``"union of ... : joining <b> batches"`` (joins done so far of
+            ``b - 1``: the batches are joined in pairs, level by level), so a display
+            can name the stage running.
 
         Returns
         -------

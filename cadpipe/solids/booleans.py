@@ -179,11 +179,12 @@ def united(solids, progress=None):
 
     One ``batch_boolean`` for a few (lazy, as manifold3d's operations are). For
     :data:`BATCHED_UNION` or more, about sqrt(n) batches of neighbours (slabs along
-    the longest side of their boxes) are united one after the other and then
-    joined, and ``progress(done, batches)`` is called after each batch and before
-    the join (``done == batches``): one manifold3d call that runs for a minute
-    shows no progress, and it holds the interpreter. It costs no more (the union
-    of 1,000 crossing pipes: ``benchmarks/bench_build.py``, ``docs/performance.md``).
+    the longest side of their boxes) are united one after the other, then joined
+    in pairs, level by level, each call computed at once, and ``progress(done,
+    total)`` is called after each of the ``2 * batches - 1`` calls: one manifold3d
+    call that runs for a minute shows no progress, and it holds the interpreter.
+    It costs no more than one call, and less for long crossing pipes (measured in
+    ``benchmarks/bench_build.py``, figures in ``docs/performance.md``).
     """
     import manifold3d
 
@@ -191,19 +192,26 @@ def united(solids, progress=None):
     solids = list(solids)
     if len(solids) < BATCHED_UNION:
         return solids[0] if len(solids) == 1 else Manifold.batch_boolean(solids, Op.Add)
-    boxes = bounding_boxes(solids)
-    centres = boxes.mean(axis=1)
+    centres = bounding_boxes(solids).mean(axis=1)
     axis = int(np.argmax(np.ptp(centres, axis=0)))
-    batches = np.array_split(np.argsort(centres[:, axis], kind="stable"),
-                             round(np.sqrt(len(solids))))
-    pieces = []
-    for done, batch in enumerate(batches, 1):
-        piece = Manifold.batch_boolean([solids[k] for k in batch], Op.Add)
-        piece.num_tri()                              # manifold3d is lazy: work now
-        pieces.append(piece)
-        if progress is not None:
-            progress(done, len(batches))
-    return Manifold.batch_boolean(pieces, Op.Add)
+    level = [[solids[k] for k in batch] for batch in
+             np.array_split(np.argsort(centres[:, axis], kind="stable"),
+                            round(np.sqrt(len(solids))))]
+    total, done = 2 * len(level) - 1, 0
+    while True:
+        pieces = []
+        for members in level:
+            piece = members[0] if len(members) == 1 else \
+                Manifold.batch_boolean(members, Op.Add)
+            if len(members) > 1:
+                piece.num_tri()                  # manifold3d is lazy: work now
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+            pieces.append(piece)
+        if len(pieces) == 1:
+            return pieces[0]
+        level = [pieces[k:k + 2] for k in range(0, len(pieces), 2)]
 
 
 def combine_cluster(adds, cuts=(), clips=(), progress=None):
