@@ -332,21 +332,21 @@ class Assembly:
                 pieces.append((shape, shape.world))
             else:
                 booleans.append((index, reach))
-        solids, united = [], 0
+        solids, so_far = [], 0
         members, groups = sum(len(i) for i, _ in booleans), len(booleans)
         stage = f"union of {members} solids in {groups} group{'s' * (groups != 1)}"
         for index, reach in booleans:
             batches = None
             if progress is not None:
-                progress(stage, united, members)
-                batches = partial(_batch_progress, progress, stage, united, len(index), members)
+                progress(stage, so_far, members)
+                batches = partial(_batch_progress, progress, stage, so_far, len(index), members)
             solid = combine_cluster(
                 [adds[i].solid for i in index],
                 [c.solid if isinstance(c, _Shape) else c for c in (cuts[j] for j in reach)],
                 clips, batches)
             solid.num_tri()                       # manifold3d is lazy: work now, counted
             solids.append(solid)
-            united += len(index)
+            so_far += len(index)
         if solids:
             import manifold3d
 
