@@ -135,6 +135,26 @@ def test_plain_progress_names_the_join_of_a_large_union(tmp_path, capsys):
                      "cadpipe build: union of 70 solids in 1 group: joining 8 batches"]
 
 
+@pytest.mark.slow
+def test_check_accepts_what_build_writes_of_a_union_of_many_crossing_pipes(tmp_path, capsys):
+    # float32 rounding shortened a few edges manifold3d's simplify had left to nothing:
+    # the files welded their ends, and check found edges of three or four faces
+    rng = np.random.default_rng(0)
+    rods = []
+    for _ in range(400):
+        steps = rng.normal(size=(3, 3))
+        steps *= 0.15 / np.linalg.norm(steps, axis=1, keepdims=True)
+        start = rng.uniform(0.1, 0.9, 3)
+        path = np.clip(np.vstack([start, start + np.cumsum(steps, axis=0)]), 0, 1)
+        rods.append(f"[[parts]]\nkind = \"pipe\"\nradius = 0.01\nsides = 12\n"
+                    f"path = {np.round(path, 6).tolist()}\n")
+    path = spec(tmp_path, 'name = "rods"\n' + "".join(rods))
+    outputs = [tmp_path / f"rods.{suffix}" for suffix in ("stl", "3mf", "glb")]
+    assert main(["build", str(path), "-q", *[a for o in outputs for a in ("-o", str(o))]]) == 0
+    for output in outputs:
+        assert main(["check", str(output)]) == 0, capsys.readouterr().out
+
+
 def test_spec_outputs_reach_every_export_option(tmp_path, capsys):
     path = spec(tmp_path, TWO_CROSSING + """
     [[outputs]]

@@ -280,9 +280,10 @@ def exportable(solid, part_of_id=None, **mesh_options):
 
     What float32 cannot tell apart, a file merges: an edge shorter than
     :func:`float32_step` becomes a point (manifold3d's ``simplify`` collapses it,
-    moving the surface less than that), and copies of one point that the boolean
-    kept apart, where the solid touches itself (a pinch), become one vertex with
-    non-manifold edges (:func:`separated_pinches` moves each copy into its own
+    moving the surface less than that; those it leaves are collapsed too,
+    :func:`without_short_edges`), and copies of one point that the
+    boolean kept apart, where the solid touches itself (a pinch), become one vertex
+    with non-manifold edges (:func:`separated_pinches` moves each copy into its own
     fan). Triangles of zero area go with the collapses.
 
     Parameters
@@ -298,8 +299,40 @@ def exportable(solid, part_of_id=None, **mesh_options):
     mesh : Mesh
     """
     step = float32_step(solid.bounding_box())
-    mesh = Mesh.from_manifold(solid.simplify(step), part_of_id=part_of_id, **mesh_options)
+    mesh = Mesh.from_manifold(without_short_edges(solid.simplify(step), step),
+                              part_of_id=part_of_id, **mesh_options)
     return separated_pinches(mesh, step)
+
+
+def without_short_edges(solid, step):
+    """``solid`` with every edge shorter than ``step`` collapsed.
+
+    ``simplify`` leaves some, where collapsing them would fold a triangle over (56
+    of 290,000 in the union of 1,000 crossing pipes); a float32 file can give both
+    ends of such an edge one position (in whichever unit it is written) and weld
+    them, and the faces around them then meet at edges of more than two faces. The
+    ends of each run of short edges are put on one point, which moves the surface
+    less than ``step``, and manifold3d rebuilds the solid, collapsing each edge of
+    zero length and its two triangles as a manifold edge collapse.
+    """
+    import manifold3d
+
+    out = solid.to_mesh64()
+    vertices = np.array(out.vert_properties)
+    faces = np.asarray(out.tri_verts).astype(np.int64)
+    a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    short = np.linalg.norm(vertices[a, :3] - vertices[b, :3], axis=1) < step
+    if not short.any():
+        return solid
+    group = connected_labels(len(vertices), a[short], b[short])
+    _, first = np.unique(group, return_index=True)
+    vertices[:, :3] = vertices[first[group], :3]          # each run on its first vertex
+    arrays = {k: np.array(getattr(out, k), np.uint64)
+              for k in ("tri_verts", "merge_from_vert", "merge_to_vert", "run_index", "face_id")}
+    rebuilt = manifold3d.Manifold(manifold3d.Mesh64(
+        vert_properties=vertices, run_original_id=np.array(out.run_original_id, np.uint32),
+        **arrays))
+    return rebuilt if rebuilt.status() == manifold3d.Error.NoError else solid
 
 
 def separated_pinches(mesh, step):
