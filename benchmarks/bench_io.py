@@ -15,7 +15,8 @@ cadpipe / peer; the load average is printed with them):
   both formats written from one mesh (the shading is computed once and shared).
 
 Then, in a fresh process per format, the peak resident memory of writing a large
-pipe (``--points`` points, 16 sides) above the memory before the write, against
+pipe (``--points`` points, 16 sides) above the memory before the write (freed memory
+handed back to the system first, and the writer warmed up on a small pipe), against
 the size of the mesh's own arrays (vertices and faces), and numpy's own peak
 (tracemalloc sees numpy's buffers, not usd-core's).
 
@@ -42,6 +43,11 @@ from cadpipe.solids.intersect import self_intersections
 from cadpipe.solids.validity import check_mesh
 
 FORMATS = ("stl", "3mf", "obj", "ply", "glb", "usda", "usdc", "usdz")
+#: the memory runs' peer: usd-core alone holding the same points, counts and indices
+PXR = "pxr.usdc"
+#: the memory run of a PLY whose faces carry three colours (vertices split where they meet)
+PLY3 = "3-colour.ply"
+EXTRA = (PXR, PLY3)
 LOAD_FORMATS = ("stl", "obj", "ply", "3mf", "glb")
 #: a write over this many bytes above the mesh misses issue 16's target
 LIMIT = 4e9
@@ -92,6 +98,26 @@ def pxr_plain(mesh, path):
                                                                   np.int32)))
     geom.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel()))
     stage.GetRootLayer().Export(str(path))
+
+
+def banded(mesh):
+    """``mesh`` with its faces in three colours, in bands of 5,000 faces."""
+    return mesh.with_parts(["red", "green", "blue"], (np.arange(len(mesh.faces)) // 5000) % 3)
+
+
+def numpy_split(mesh):
+    """The sort-based PLY colour split (cadpipe's before): one vertex per distinct
+    (vertex, label) pair through ``np.unique`` of packed keys."""
+    key = mesh.faces * len(mesh.part_names) + mesh.face_part[:, None]
+    unique, faces = np.unique(key, return_inverse=True)
+    return np.divmod(unique, len(mesh.part_names)), faces.reshape(-1, 3)
+
+
+def cadpipe_split(mesh):
+    from cadpipe.io.trimesh_formats import _copies_per_label
+
+    faces = np.empty(mesh.faces.shape, np.int32)
+    return _copies_per_label(mesh.faces, mesh.face_part, len(mesh.vertices), faces), faces
 
 
 def same_findings(folder):
@@ -148,6 +174,10 @@ def speed(runs, points):
 
         t = interleaved(runs, normals=lambda: both(True), plain=lambda: both(False))
         rows.append(("usdc + glb, one mesh", t["normals"], "without normals", t["plain"]))
+        colours = banded(mesh)
+        t = interleaved(runs, cadpipe=lambda: cadpipe_split(colours),
+                        numpy=lambda: numpy_split(colours))
+        rows.append(("PLY 3-colour vertex split", t["cadpipe"], "np.unique", t["numpy"]))
         findings = same_findings(folder)
     print(f"{'what':26s} {'cadpipe s':>10s}  {'peer':16s} {'peer s':>8s} {'ratio':>6s}")
     for what, ours, peer, theirs in rows:
@@ -164,13 +194,33 @@ def resident():
         return int(fh.read().split()[1]) * resource.getpagesize()
 
 
+def settled():
+    """Hand freed memory back to the system (cadpipe's recycled blocks, glibc's heap), so
+    the resident memory before a write is what is live, and memory the write takes shows."""
+    import ctypes
+    import gc
+
+    from cadpipe.geometry import buffers
+
+    gc.collect()
+    buffers.release()
+    ctypes.CDLL("libc.so.6").malloc_trim(0)
+    return resident()
+
+
 def peak_of_one_write(suffix, points):
-    """Run in a child: build the pipe, then write it; print the mesh's bytes, the resident
-    memory before the write and its peak during it (sampled every 2 ms), numpy's peak
-    above the start of the write (tracemalloc) and seconds."""
+    """Run in a child: build the pipe, write a small one in the same format (so compiled
+    kernels and libraries are loaded before), then write the pipe; print the mesh's
+    bytes, the resident memory before the write and its peak during it (sampled every
+    2 ms), numpy's peak above the start of the write (tracemalloc) and seconds."""
     mesh = wavy_pipe(points, 16)
+    colours = banded(mesh) if suffix == PLY3 else None
     arrays = mesh.vertices.nbytes + mesh.faces.nbytes
-    before = resident()
+    with tempfile.TemporaryDirectory(prefix="bench-io-", dir=".") as folder:
+        small = wavy_pipe(100, 16)
+        export(banded(small) if suffix == PLY3 else small,
+               FilePath(folder) / f"warm.{suffix.split('.')[-1]}")
+    before = settled()
     peak, writing = [before], threading.Event()
 
     def sample():
@@ -183,7 +233,12 @@ def peak_of_one_write(suffix, points):
     with tempfile.TemporaryDirectory(prefix="bench-io-", dir=".") as folder:
         tracemalloc.start()
         start = time.perf_counter()
-        export(mesh, FilePath(folder) / f"pipe.{suffix}")
+        if suffix == PXR:
+            pxr_plain(mesh, FilePath(folder) / "pipe.usdc")
+        elif suffix == PLY3:
+            export(colours, FilePath(folder) / "pipe.ply")
+        else:
+            export(mesh, FilePath(folder) / f"pipe.{suffix}")
         seconds = time.perf_counter() - start
         traced = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
@@ -192,12 +247,12 @@ def peak_of_one_write(suffix, points):
     print(arrays, before, peak[0], traced, seconds)
 
 
-def memory(points):
+def memory(points, formats=FORMATS):
     print(f"peak memory of one write, {points:,}-point pipe x 16 sides (fresh process each); "
           f"load average {os.getloadavg()[0]:.1f}")
     print(f"{'format':8s} {'mesh MB':>8s} {'before MB':>9s} {'peak MB':>8s} {'added MB':>8s} "
           f"{'added/mesh':>10s} {'numpy/mesh':>10s} {'write s':>8s}  under 4 GB")
-    for suffix in FORMATS:
+    for suffix in formats:
         run = subprocess.run([sys.executable, __file__, "--child", suffix, "--points",
                               str(points)], capture_output=True, text=True, check=True)
         arrays, before, after, traced, seconds = map(float, run.stdout.split())
@@ -216,14 +271,19 @@ def main():
                         help="path points of the speed runs' pipe (25 sides)")
     parser.add_argument("--memory-only", action="store_true")
     parser.add_argument("--speed-only", action="store_true")
-    parser.add_argument("--child", choices=FORMATS)
+    parser.add_argument("--formats", nargs="+", choices=(*FORMATS, *EXTRA),
+                        default=(*FORMATS, *EXTRA),
+                        help=f"formats of the memory runs (each in its own process; {PXR}: "
+                             f"a plain usd-core stage of points, counts and indices; {PLY3}: "
+                             "the pipe's faces in three colours)")
+    parser.add_argument("--child", choices=(*FORMATS, *EXTRA))
     args = parser.parse_args()
     if args.child:
         return peak_of_one_write(args.child, args.points)
     if not args.memory_only:
         speed(args.runs, args.speed_points)
     if not args.speed_only:
-        memory(args.points)
+        memory(args.points, args.formats)
 
 
 if __name__ == "__main__":

@@ -38,8 +38,9 @@ COMMANDS = {
         "about": "Runs the built-in welding cell end to end: a weld seam fitted as a spline, "
                  "safety pipes with 6-, 8- and 12-gon mouths spliced through LCM transitions, "
                  "a hollow printable tee, a posed six-axis arm, the collision report with a "
-                 "separation certificate. Writes `scene.usda`, `scene.usdz`, `parts.stl`, "
-                 "`scene.glb`, `report.json`, `preview.png`, `preview.html` and "
+                 "separation certificate. Writes `scene.usda`, `scene.usdz`, `parts.stl` and "
+                 "`parts.3mf` (laid out for printing, STL in millimetres), `scene.glb`, "
+                 "`report.json`, `preview.png`, `preview.html` and "
                  "`certificate.svg` to the folder and prints a short summary. "
                  "`make demo` runs `cadpipe demo -o out/demo`.",
         "examples": ["cadpipe demo -o out/demo"],
@@ -49,7 +50,13 @@ COMMANDS = {
                  "writes the outputs. Everything that can be checked before writing is "
                  "checked first (spec, parts, booleans, output formats); then each file is "
                  "written whole or not at all. The format follows the suffix "
-                 "([export.md](export.md)).",
+                 "([export.md](export.md)). Progress names the stage running, with counts: "
+                 "reading, meshing N parts, union of N solids in K groups (solids united "
+                 "so far; a group of 64 or more is united in batches, then their join is "
+                 "its own stage), writing each file, summing up; a bar on stderr on a "
+                 "terminal, else one plain line per stage on stdout. Parts whose boxes "
+                 "overlap nothing skip the booleans. Ctrl-C ends the build within a second "
+                 "and leaves no partial file (exit 130).",
         "examples": ["cadpipe build assets/examples/tee.toml -o out/tee.stl -o out/tee.usda",
                      "cadpipe build assets/examples/manifold.toml -o out/manifold.glb "
                      "--mode parts -q"],
@@ -57,7 +64,9 @@ COMMANDS = {
     "check": {
         "about": "Loads a mesh file and reports whether it is a closed, outward, "
                  "non-self-intersecting solid: triangle and vertex counts, volume, area, "
-                 "bounds, bodies and the problems found ([export.md](export.md)).",
+                 "bounds, bodies and the problems found ([export.md](export.md)). Faces "
+                 "that touch within the file's coordinate precision (float32, or 3MF's and "
+                 "OBJ's decimals of float32) do not count as crossing.",
         "exit": {0: "the file is a valid closed solid",
                  1: "it is not (the report says why), or it cannot be read"},
         "examples": ["cadpipe check out/tee.stl", "cadpipe check out/tee.stl --json"],

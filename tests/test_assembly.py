@@ -272,3 +272,28 @@ def test_a_union_of_many_crossing_pipes_has_no_degenerate_face_in_any_file(tmp_p
         tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
         assert tm.nondegenerate_faces(height=1e-12).all()
         assert tm.is_watertight and tm.is_winding_consistent
+
+
+def test_a_large_group_reports_progress_within_its_union_and_unites_the_same_solid():
+    rng = np.random.default_rng(3)
+    asm = Assembly()
+    meshes = []
+    for k in range(80):                  # 80 rods crossing in one cube: one group
+        a, b = rng.uniform(0, 1, 3), rng.uniform(0, 1, 3)
+        meshes.append(Pipe([a, b], 0.03, sides=6).mesh())
+        asm.add(f"rod{k}", meshes[-1])
+    calls = []
+    solid = asm.union(progress=lambda *call: calls.append(call))
+    union = [(text, done, total) for text, done, total in calls if text.startswith("union")]
+    # solids united so far, moving within the one group (batches of about sqrt(80))
+    assert union[0] == ("union of 80 solids in 1 group", 0, 80)
+    moves = [done for text, done, _ in union if text == "union of 80 solids in 1 group"]
+    assert moves == sorted(moves) and len(set(moves)) >= 8
+    joins = [(done, total) for text, done, total in union
+             if text == "union of 80 solids in 1 group: joining 9 batches"]
+    assert joins == [(k, 8) for k in range(1, 9)]        # 9 batches joined in pairs: 8 calls
+    # the same solid as manifold3d's single union of the same meshes
+    whole = manifold3d.Manifold.batch_boolean(
+        [m.to_manifold(f"rod{k}", k + 1) for k, m in enumerate(meshes)], manifold3d.OpType.Add)
+    assert solid.volume == pytest.approx(whole.volume(), rel=1e-9)
+    assert cadpipe.check_mesh(solid)["valid"]

@@ -12,7 +12,9 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe.cli import main
-from cadpipe.solids.intersect import box_pairs, self_intersections
+from cadpipe.io.files import export, load_mesh
+from cadpipe.io.text import float32_decimal
+from cadpipe.solids.intersect import box_pairs, float32_coordinates, self_intersections
 
 
 def straight_pipe(length=2.0, radius=0.25, sides=12):
@@ -100,6 +102,69 @@ def test_box_pairs_match_brute_force(boxes, seed):
     overlap = ((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None])).all(axis=2)
     expected = {(i, j) for i, j in zip(*np.nonzero(np.triu(overlap, 1)))}
     assert len(found) == len(set(found)) and set(found) == expected
+
+
+# -- contacts within a file's coordinate precision ---------------------------------------
+def test_float32_values_and_their_nine_digit_decimals_are_float32_coordinates():
+    rng = np.random.default_rng(1)
+    computed = rng.uniform(-1, 1, (1000, 3))               # float64 work: between steps
+    assert not float32_coordinates(computed)
+    as_float32 = computed.astype(np.float32).astype(np.float64)
+    assert float32_coordinates(as_float32)
+    mantissa, exponent = float32_decimal(computed)          # the 3MF / OBJ writers' text
+    text = " ".join(f"{m}e{e}" for m, e in zip(mantissa.ravel(), exponent.ravel()))
+    assert float32_coordinates(np.array(text.split(), float).reshape(-1, 3))
+    # six digits (C's %g) are coarser than float32: not taken for float32 coordinates
+    assert not float32_coordinates(np.array([f"{x:g}" for x in computed.ravel()],
+                                            float).reshape(-1, 3))
+
+
+def edge_on_box(depth, seed):
+    """A bar lying on a box along one of its edges (turned 45 degrees about x), that edge
+    ``depth`` below the box's top face (a line contact for 0, a crossing below it), the
+    two turned at random so that no coordinate of the contact is a round number."""
+    from scipy.spatial.transform import Rotation
+
+    down = np.eye(4)
+    down[2, 3] = -0.5                                    # top face at z = 0
+    turn = np.eye(4)
+    turn[1:3, 1:3] = [[np.cos(np.pi / 4), -np.sin(np.pi / 4)],
+                      [np.sin(np.pi / 4), np.cos(np.pi / 4)]]
+    turn[2, 3] = 0.1 * np.sqrt(2) - depth                # its lowest edge at z = -depth
+    both = cadpipe.Mesh.concatenate([cadpipe.primitives.box(1.0).transformed(down),
+                                     cadpipe.primitives.box([0.6, 0.2, 0.2]).transformed(turn)])
+    tilt = np.eye(4)
+    tilt[:3, :3] = Rotation.random(random_state=seed).as_matrix()
+    tilt[:3, 3] = [0.3, 0.2, 0.1]
+    return both.transformed(tilt)
+
+
+@pytest.mark.parametrize("suffix", ["stl", "3mf", "obj", "ply", "glb"])
+def test_a_contact_rounded_by_the_file_is_not_a_crossing_but_a_real_one_is(tmp_path, suffix):
+    # 3MF and OBJ hold decimals of float32 values: they moved the contact of 4 of these 8
+    # by 1e-9 m and their faces were counted as crossing (the demo cell's two arm links)
+    for seed in range(8):
+        touching, crossing = edge_on_box(0.0, seed), edge_on_box(1e-5, seed)
+        assert len(self_intersections(touching)) == 0
+        expected = self_intersections(crossing)
+        assert len(expected) > 0                 # 10 micrometres deep at 1 m: a real crossing
+        for mesh, pairs in ((touching, 0), (crossing, len(expected))):
+            back = load_mesh(export(mesh, tmp_path / f"bar.{suffix}", units="m"))
+            assert len(self_intersections(back)) == pairs, (suffix, seed)
+
+
+@pytest.mark.parametrize("suffix", ["3mf", "obj"])
+def test_decimal_files_flag_the_same_crossing_faces_as_pymeshlab(tmp_path, suffix):
+    import pymeshlab
+
+    both = cadpipe.Mesh.concatenate(crossing_pipes(0.0))
+    back = load_mesh(export(both, tmp_path / f"crossing.{suffix}", units="m"))
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(export(both, tmp_path / "crossing.stl", units="m")))
+    ms.compute_selection_by_self_intersections_per_face()
+    theirs = np.flatnonzero(ms.current_mesh().face_selection_array())
+    assert len(theirs) > 0
+    np.testing.assert_array_equal(np.unique(self_intersections(back)), theirs)
 
 
 # -- the command -----------------------------------------------------------------

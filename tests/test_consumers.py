@@ -13,6 +13,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 import cadpipe
 from cadpipe.cli import main
@@ -31,7 +32,8 @@ SLICER = ["--bed-shape", "0x0,2000x0,2000x2000,0x2000", "--max-print-height", "1
           "--nozzle-diameter", "1", "--layer-height", "0.7", "--first-layer-height", "0.7",
           "--fill-density", "0", "--perimeters", "1", "--skirts", "0",
           "--top-solid-layers", "0", "--bottom-solid-layers", "1"]
-FORMATS = ("stl", "3mf", "glb", "usdz")
+#: every format an example is built into: the printing ones laid out for the bed
+PRINTING, SCENES = ("stl", "3mf"), ("glb", "usdz", "usda", "obj", "ply")
 
 pytestmark = pytest.mark.slow
 
@@ -47,14 +49,13 @@ def demo(tmp_path_factory):
 
 @pytest.fixture(scope="module", params=[p.name for p in EXAMPLES])
 def example(request, tmp_path_factory):
-    """An example spec built into every consumer format (printing ones laid out)."""
+    """An example spec built into every format (printing ones laid out), by two builds."""
     folder = tmp_path_factory.mktemp(FilePath(request.param).stem)
     spec = ROOT / "assets" / "examples" / request.param
     stem = spec.stem
-    for suffix in FORMATS:
-        layout = ["--layout", "print"] if suffix in ("stl", "3mf") else []
-        assert main(["build", str(spec), "-q", "-o", str(folder / f"{stem}.{suffix}"),
-                     *layout]) == 0
+    for formats, layout in ((PRINTING, ["--layout", "print"]), (SCENES, [])):
+        outputs = [arg for suffix in formats for arg in ("-o", str(folder / f"{stem}.{suffix}"))]
+        assert main(["build", str(spec), "-q", *outputs, *layout]) == 0
     return folder, stem
 
 
@@ -88,6 +89,19 @@ def test_demo_parts_stand_on_the_bed_in_millimetres(demo):
     low, high = mesh.bounds
     assert low[2] == pytest.approx(0.0, abs=1e-6)
     assert 100 < (high - low).max() < 2000          # hundreds of mm, not a fraction of one
+
+
+# -- cadpipe check: build never writes a solid that check rejects -------------------------
+def test_check_accepts_every_file_the_demo_writes(demo, capsys):
+    for name in ("parts.stl", "parts.3mf", "scene.glb", "scene.usda", "scene.usdz"):
+        assert main(["check", str(demo / name)]) == 0, (name, capsys.readouterr().out)
+
+
+def test_check_accepts_every_file_each_example_builds(example, capsys):
+    folder, stem = example
+    for suffix in PRINTING + SCENES:
+        assert main(["check", str(folder / f"{stem}.{suffix}")]) == 0, \
+            (suffix, capsys.readouterr().out)
 
 
 # -- lib3mf --------------------------------------------------------------------------
@@ -206,12 +220,67 @@ def test_each_example_usdz_follows_the_arkit_rules(example):
     assert arkit_problems(folder / f"{stem}.usdz") == []
 
 
+# -- MeshLab (pymeshlab) and Blender's PLY colours ---------------------------------------
+#: the colours of the three crossing pipes of :func:`crossing`, by part name
+PALETTE = {"a": (255, 0, 0), "b": (0, 0, 255), "c": (0, 255, 0)}
+
+
+@pytest.fixture(scope="module")
+def crossing():
+    """Three crossing pipes of three colours: their union has faces of each colour, and
+    vertices where the colours meet."""
+    asm = cadpipe.Assembly(name="cross")
+    asm.add("a", cadpipe.Pipe([[0, 0, 0], [1, 0, 0]], 0.2, sides=12), color="#ff0000")
+    asm.add("b", cadpipe.Pipe([[0.5, -0.5, 0], [0.5, 0.5, 0]], 0.2, sides=12), color="#0000ff")
+    asm.add("c", cadpipe.Pipe([[0.5, 0, -0.5], [0.5, 0, 0.5]], 0.15, sides=8), color="#00ff00")
+    union = asm.union()
+    return asm, union, np.array([PALETTE[n] for n in union.part_names])[union.face_part]
+
+
+@pytest.mark.parametrize("ascii", [False, True])
+def test_meshlab_reads_the_colours_of_a_union_per_face_and_per_vertex(tmp_path, crossing,
+                                                                        ascii):
+    """Blender's PLY importer reads vertex colours only, MeshLab both: each face's corners
+    must carry its part's colour, so vertices where parts meet are written once per colour
+    (and only those)."""
+    import pymeshlab
+
+    asm, union, expected = crossing
+    ms = pymeshlab.MeshSet()
+    ms.load_new_mesh(str(asm.export(tmp_path / "cross.ply", ascii=ascii)))
+    read = ms.current_mesh()
+    faces, points = read.face_matrix(), read.vertex_matrix()
+    face_rgb = np.round(read.face_color_matrix()[:, :3] * 255)
+    corner_rgb = np.round(read.vertex_color_matrix()[:, :3] * 255)[faces]
+    np.testing.assert_array_equal(face_rgb, expected)
+    np.testing.assert_array_equal(corner_rgb, np.repeat(expected[:, None], 3, axis=1))
+    np.testing.assert_array_equal(points[faces], union.triangles.astype(np.float32))
+    # one vertex per (vertex, colour) pair of the union's corners: split only where colours meet
+    pairs = np.unique(np.c_[union.faces.ravel(), np.repeat(union.face_part, 3)], axis=0)
+    assert read.vertex_number() == len(pairs) > len(union.vertices)
+
+
+@pytest.mark.parametrize("suffix", ["3mf", "ply", "glb", "usdc"])
+def test_a_unions_face_colours_read_back(tmp_path, crossing, suffix):
+    # cadpipe's 3MF reader went through trimesh, which reads no 3MF colours: all grey
+    asm, union, expected = crossing
+    back = load_scene(asm.export(tmp_path / f"cross.{suffix}", mode="solid"))
+    (part,) = back.parts
+    painted = labelled(back, part)
+    found = np.round(painted.colors[painted.labels] * 255)
+    # each face read matched to the union's face with the same centre (float32 apart)
+    centres = part.world_mesh(back.scale_to(asm.units)).triangles.mean(axis=1)
+    distance, face = cKDTree(union.triangles.mean(axis=1)).query(centres)
+    assert distance.max() < 1e-6 and len(np.unique(face)) == len(union.faces)
+    np.testing.assert_array_equal(found, expected[face])
+
+
 # -- round trips through cadpipe's own readers ------------------------------------------
 ROUND_TRIP = ("usda", "usdc", "usdz", "glb", "3mf", "obj", "ply", "stl")
 #: formats that store part names (STL and PLY store none)
 NAMED = {"usda", "usdc", "usdz", "glb", "3mf", "obj"}
 #: formats that store colours (per face or per part)
-COLOURED = {"usda", "usdc", "usdz", "glb", "ply"}
+COLOURED = {"usda", "usdc", "usdz", "glb", "ply", "3mf"}
 
 
 @pytest.fixture(scope="module")

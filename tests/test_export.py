@@ -163,8 +163,11 @@ def test_usd_union_keeps_part_colours_through_geom_subsets(tmp_path, scene):
                                       np.flatnonzero(union.face_part == label))
         material, _ = UsdShade.MaterialBindingAPI(subset.GetPrim()).ComputeBoundMaterial()
         assert _diffuse(material) == pytest.approx(rgb)
-    colors = np.asarray(geom.GetDisplayColorPrimvar().Get())
-    np.testing.assert_allclose(colors, np.array([RED, BLUE])[union.face_part])
+    # indexed (a colour per part, a part per face), as renderers and Blender flatten it
+    display = geom.GetDisplayColorPrimvar()
+    assert display.IsIndexed() and display.GetInterpolation() == UsdGeom.Tokens.uniform
+    np.testing.assert_allclose(np.asarray(display.ComputeFlattened()),
+                               np.array([RED, BLUE])[union.face_part])
 
 
 def test_usdz_is_a_package_around_a_binary_layer(tmp_path):

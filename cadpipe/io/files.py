@@ -317,8 +317,16 @@ def _trimesh_scene(path, key):
     if assumed:
         units = ASSUMED_UNITS.get(key, "m")
     parts, taken, colors = [], set(), {}
+    materials = {}
+    if key == "3mf":              # trimesh reads no 3MF colours: the base materials, by name
+        from cadpipe.io.threemf import base_materials
+
+        materials = base_materials(path)
     for name, tm in pieces:
-        labels, names, rgb = _face_colour_labels(tm, str(name))
+        if str(name) in materials and len(materials[str(name)][0]) == len(tm.faces):
+            labels, names, rgb = _material_labels(*materials[str(name)])
+        else:
+            labels, names, rgb = _face_colour_labels(tm, str(name))
         colors.update(zip(names, rgb))
         mesh = file_mesh(tm.vertices, tm.faces, path, name, face_part=labels, part_names=names,
                          attributes={"source": str(path), "units": units,
@@ -326,6 +334,15 @@ def _trimesh_scene(path, key):
         parts.append(ScenePart(unique_name(str(name), taken), mesh))
     return Scene(name=path.stem, parts=tuple(parts), units=units,
                  colors=MappingProxyType(colors))
+
+
+def _material_labels(labels, bases):
+    """Labels of faces by material (``bases``: (name, colour) each), the names (unique)
+    and colours of those the faces use."""
+    used, labels = np.unique(labels, return_inverse=True)
+    taken = set()
+    names = tuple(unique_name(bases[k][0] or "material", taken) for k in used)
+    return labels.ravel(), names, [bases[k][1] for k in used]
 
 
 def _face_colour_labels(tm, name):

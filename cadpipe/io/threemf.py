@@ -22,17 +22,19 @@ fewest digits that read back to the same float32, which is what slicers parse
 them into.
 """
 
+import re
 import zipfile
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
-from xml.sax.saxutils import quoteattr
+from xml.sax.saxutils import quoteattr, unescape
 
 import numpy as np
 
 from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import merge_tables
-from cadpipe.io.scene import as_scene
+from cadpipe.io.scene import as_scene, parse_color
 from cadpipe.io.files import atomic_path, unique_name
-from cadpipe.io.flatten import labelled
+from cadpipe.io.flatten import DEFAULT_COLOR, labelled
 from cadpipe.io.text import ascii_rows, float32_columns
 
 #: 3MF's names for cadpipe's scene units
@@ -146,3 +148,94 @@ def _hex(rgb):
 
 def _escape(text):
     return quoteattr(str(text))[1:-1]
+
+
+# -- reading the colours back -------------------------------------------------------
+_OBJECT = re.compile(rb"<(?:\w+:)?object\b([^>]*)>")
+_OBJECT_END = re.compile(rb"</(?:\w+:)?object>")
+_BASE_GROUP = re.compile(rb"<(?:\w+:)?basematerials\b([^>]*)>(.*?)</(?:\w+:)?basematerials>",
+                         re.S)
+_BASE = re.compile(rb"<(?:\w+:)?base\b([^>]*)>")
+_ATTRIBUTE = re.compile(rb'([\w:]+)\s*=\s*"([^"]*)"')
+_P1 = re.compile(rb' p1="(\d{1,9})"')
+_PID = re.compile(rb' pid="(\d+)"')
+
+
+def base_materials(path):
+    """The base material of each triangle of each object of a 3MF file.
+
+    Returns
+    -------
+    materials : dict
+        ``{object name: (labels, bases)}``: ``labels`` (T,) int, the index into
+        ``bases`` of each triangle in file order (its ``p1``, else the object's
+        ``pindex``); ``bases`` a list of ``(name, (r, g, b))`` with channels in
+        [0, 1]. Only objects named once, whose triangles all take materials of the
+        object's own ``<basematerials>`` group (what cadpipe and most slicers write).
+
+    The model is scanned as bytes (C-level searches, no parse of every element): a
+    resource is declared before it is used, so the material groups come before the
+    first object.
+    """
+    with zipfile.ZipFile(path) as package:
+        data = package.read(_root_model(package))
+    first = _OBJECT.search(data)
+    groups = {}
+    for attributes, body in _BASE_GROUP.findall(data, 0, first.start() if first else 0):
+        groups[_attributes(attributes).get("id")] = [
+            (b.get("name", ""), _rgb(b.get("displaycolor", "")))
+            for b in map(_attributes, _BASE.findall(body))]
+    found, named = {}, Counter()
+    while first is not None:
+        stop = data.find(b"</object>", first.end())        # the core namespace's, at C speed
+        if stop < 0:
+            end = _OBJECT_END.search(data, first.end())
+            stop = end.start() if end else len(data)
+        own = _attributes(first.group(1))
+        name = own.get("name", own.get("id", ""))
+        named[name] += 1
+        bases = groups.get(own.get("pid"))
+        labels = _object_labels(data[first.end():stop], own, len(bases)) if bases else None
+        if labels is not None:
+            found[name] = (labels, bases)
+        first = _OBJECT.search(data, stop)
+    return {name: value for name, value in found.items() if named[name] == 1}
+
+
+def _object_labels(body, own, bases):
+    """(T,) base of each triangle of the object whose content is ``body``, or None when
+    its triangles do not all take one of the ``bases`` (a count) of its own group."""
+    count = body.count(b"<triangle ") + body.count(b"<triangle\t")
+    if not count or set(_PID.findall(body)) - {own["pid"].encode()}:
+        return None
+    p1 = _P1.findall(body)
+    if len(p1) == count:
+        labels = np.array(p1).astype(np.int64)
+    elif not p1 and own.get("pindex", "0").isdigit():
+        labels = np.full(count, int(own.get("pindex", "0")))
+    else:
+        return None                       # some triangles with p1, some without
+    return labels if labels.max() < bases else None
+
+
+def _root_model(package):
+    """The path of the package's root model part (its relationship's target)."""
+    rels = package.read("_rels/.rels") if "_rels/.rels" in package.namelist() else b""
+    for attributes in re.findall(rb"<Relationship\b([^>]*)>", rels):
+        relation = _attributes(attributes)
+        if relation.get("Type", "").endswith("/3dmodel"):
+            return relation.get("Target", "").lstrip("/")
+    return "3D/3dmodel.model"
+
+
+def _attributes(text):
+    return {k.decode(): unescape(v.decode("utf-8", "replace"), {"&quot;": '"'})
+            for k, v in _ATTRIBUTE.findall(text)}
+
+
+def _rgb(text):
+    """3MF's ``#RRGGBB[AA]`` as (r, g, b) in [0, 1]; cadpipe's grey for anything else."""
+    try:
+        return parse_color(text.strip()[:7])
+    except InputError:
+        return DEFAULT_COLOR

@@ -24,7 +24,7 @@ from pathlib import Path as FilePath
 import numba
 import numpy as np
 
-from cadpipe.errors import MeshError
+from cadpipe.errors import ExportError, MeshError
 from cadpipe.io.files import atomic_path, file_mesh, unique_name
 from cadpipe.io.flatten import flatten, labelled
 from cadpipe.io.scene import as_scene
@@ -87,41 +87,98 @@ def write_ply(obj, path, *, ascii=False, units="m"):
     vertices, faces = painted.mesh.vertices, painted.mesh.faces
     rgb = np.round(painted.colors * 255).astype(np.uint8)
     if len(painted.names) > 1:     # a vertex where colours meet: one copy per colour
-        key = faces * len(rgb) + painted.labels[:, None]
-        unique, faces = np.unique(key, return_inverse=True)
-        faces = faces.reshape(-1, 3)
-        vertex_of, vertex_label = np.divmod(unique, len(rgb))
-        vertices = vertices[vertex_of]
+        narrow = len(vertices) + faces.size < 2**31       # int32 indices, as PLY holds them
+        split = np.empty(faces.shape, np.int32 if narrow else np.int64)
+        own_label, copy_of, copy_label = _copies_per_label(faces, painted.labels,
+                                                           len(vertices), split)
+        faces = split
+        # the vertices as they are, then the extra copies (no full-size concatenation)
+        sources = ((vertices, own_label), (vertices[copy_of], copy_label))
     else:
-        vertex_label = np.zeros(len(vertices), np.int64)
+        sources = ((vertices, np.zeros(len(vertices), np.int64)),)
+    n_vertices = sum(len(points) for points, _ in sources)
+    if n_vertices >= 2**31:
+        raise ExportError(f"PLY's int vertex indices cannot number {n_vertices:,} vertices",
+                          file=path)
     header = ("ply\nformat {} 1.0\ncomment cadpipe: {} (units: {})\n"
               "element vertex {}\nproperty float x\nproperty float y\nproperty float z\n"
               "property uchar red\nproperty uchar green\nproperty uchar blue\n"
               "element face {}\nproperty list uchar int vertex_indices\n"
               "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n")
     header = header.format("ascii" if ascii else "binary_little_endian",
-                           scene.name.replace("\n", " "), units, len(vertices), len(faces))
+                           scene.name.replace("\n", " "), units,
+                           n_vertices, len(faces))
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write(header.encode())
         if ascii:
-            _write_rows(fh, _PLY_VERTEX, np.column_stack([vertices, vertex_label]),
-                        lambda rows: np.column_stack([float32_columns(rows[:, :3]),
-                                                      rgb[rows[:, 3].astype(np.int64)]]))
-            _write_rows(fh, _PLY_FACE, np.column_stack([faces, rgb[painted.labels]]))
+            for points, label in sources:
+                _write_rows(fh, _PLY_VERTEX, range(len(points)),
+                            lambda rows, points=points, label=label: np.column_stack(
+                                [float32_columns(points[rows]), rgb[label[rows]]]))
+            _write_rows(fh, _PLY_FACE, range(len(faces)),
+                        lambda rows: np.column_stack([faces[rows], rgb[painted.labels[rows]]]))
             return
         vertex_row = np.dtype([("p", "<f4", 3), ("c", "u1", 3)])
         face_row = np.dtype([("n", "u1"), ("i", "<i4", 3), ("c", "u1", 3)])
-        for start in range(0, len(vertices), _BLOCK):
-            block = np.empty(len(vertices[start:start + _BLOCK]), vertex_row)
-            block["p"] = vertices[start:start + _BLOCK]
-            block["c"] = rgb[vertex_label[start:start + _BLOCK]]
-            fh.write(block.tobytes())
+        for points, label in sources:
+            for start in range(0, len(points), _BLOCK):
+                block = np.empty(len(points[start:start + _BLOCK]), vertex_row)
+                block["p"] = points[start:start + _BLOCK]
+                block["c"] = rgb[label[start:start + _BLOCK]]
+                fh.write(block.tobytes())
         for start in range(0, len(faces), _BLOCK):
             block = np.empty(len(faces[start:start + _BLOCK]), face_row)
             block["n"] = 3
             block["i"] = faces[start:start + _BLOCK]
             block["c"] = rgb[painted.labels[start:start + _BLOCK]]
             fh.write(block.tobytes())
+
+
+@numba.njit(cache=True, nogil=True)
+def _copies_per_label(faces, labels, n_vertices, out):
+    """Fill ``out`` (F, 3) with faces whose corners each reach a vertex of their face's
+    label: one linear pass.
+
+    A vertex keeps its index for the first label that reaches it; each further
+    label at it gets a copy numbered from ``n_vertices`` on (found through a
+    short chain per vertex: as many links as colours meet there).
+
+    Returns
+    -------
+    own_label : (V,) int64 label of each vertex as it is (0 where unused)
+    copy_of : (E,) int64 vertex each copy repeats
+    copy_label : (E,) int64 its label
+    """
+    own_label = np.full(n_vertices, -1, np.int64)
+    first_copy = np.full(n_vertices, -1, np.int64)
+    copy_of = np.empty(16, np.int64)
+    copy_label = np.empty(16, np.int64)
+    next_copy = np.empty(16, np.int64)
+    n_copies = 0
+    for f in range(len(faces)):
+        label = labels[f]
+        for k in range(3):
+            v = faces[f, k]
+            if own_label[v] < 0:
+                own_label[v] = label
+            if own_label[v] == label:
+                out[f, k] = v
+                continue
+            c = first_copy[v]
+            while c >= 0 and copy_label[c] != label:
+                c = next_copy[c]
+            if c < 0:
+                if n_copies == len(copy_of):          # grow by doubling: linear in total
+                    copy_of = np.concatenate((copy_of, np.empty_like(copy_of)))
+                    copy_label = np.concatenate((copy_label, np.empty_like(copy_label)))
+                    next_copy = np.concatenate((next_copy, np.empty_like(next_copy)))
+                c = n_copies
+                copy_of[c], copy_label[c], next_copy[c] = v, label, first_copy[v]
+                first_copy[v] = c
+                n_copies += 1
+            out[f, k] = n_vertices + c
+    own_label[own_label < 0] = 0
+    return own_label, copy_of[:n_copies], copy_label[:n_copies]
 
 
 def _faces_from(faces, offset, rows):

@@ -139,45 +139,58 @@ def _matrix(transform):
 
 
 def _define_mesh(stage, prim_path, painted, crease_angle):
-    """The Mesh prim of ``painted``. Each array goes into a ``Vt`` array (a copy, which
-    the layer then shares) as soon as it is made, so the numpy form of at most one
-    array is alive beside the layer's."""
-    from pxr import Sdf, UsdGeom, Vt
+    """The Mesh prim of ``painted``.
+
+    Memory: usd-core's layer holds its own copy of every array, so cadpipe makes
+    no second one. ``Vt.*.FromNumpy`` converts float64 points and int64 faces
+    element by element (no float32/int32 numpy copy), the face counts are one
+    ``Vt.IntArray(F, 3)``, and the one numpy temporary, the normals' corner
+    index, is made and dropped first, before the layer holds the rest.
+    """
+    from pxr import UsdGeom, Vt
 
     mesh, colors = painted.mesh, painted.colors
-    points = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(mesh.vertices, dtype=np.float32))
-    counts = Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32))
-    indices = Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel())
+    geom = UsdGeom.Mesh.Define(stage, prim_path)
+    if crease_angle is not None:
+        _set_normals(geom, shading_normals(mesh, crease_angle))
+    points = Vt.Vec3fArray.FromNumpy(mesh.vertices)
+    counts = Vt.IntArray(len(mesh.faces), 3)
+    indices = Vt.IntArray.FromNumpy(mesh.faces)
     valid, why = UsdGeom.Mesh.ValidateTopology(indices, counts, len(points))
     if not valid:
         raise MeshError(f"{prim_path}: invalid mesh topology for USD ({why})")
-    geom = UsdGeom.Mesh.Define(stage, prim_path)
     geom.CreatePointsAttr(points)
     geom.CreateFaceVertexCountsAttr(counts)
     geom.CreateFaceVertexIndicesAttr(indices)
     del points, counts, indices
-    bounds = np.stack([mesh.vertices.min(0), mesh.vertices.max(0)]).astype(np.float32)
+    bounds = np.stack([mesh.vertices.min(0), mesh.vertices.max(0)])
     geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(bounds))
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
-    shading = None if crease_angle is None else shading_normals(mesh, crease_angle)
-    if shading is not None and shading.per_vertex:
-        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals))
-        geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
-    elif shading is not None:   # creases: indexed (a normal per vertex plus a few per crease)
-        primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
-            "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
-        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals))
-        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index.astype(np.int32,
-                                                                              copy=False)))
     if len(colors) == 1:
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant)
-        display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)))
-    else:
+        display.Set(Vt.Vec3fArray.FromNumpy(colors))
+    else:               # indexed: a colour per label and a label per face, not a colour per face
         display = geom.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform)
-        display.Set(Vt.Vec3fArray.FromNumpy(colors.astype(np.float32)[painted.labels]))
+        display.Set(Vt.Vec3fArray.FromNumpy(colors))
+        display.SetIndices(Vt.IntArray.FromNumpy(painted.labels))
     return geom
+
+
+def _set_normals(geom, shading):
+    """Shading normals: per vertex without creases; else an indexed faceVarying primvar
+    (a normal per vertex plus a few per crease)."""
+    from pxr import Sdf, UsdGeom, Vt
+
+    if shading.per_vertex:
+        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading.normals))
+        geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+        return
+    primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
+        "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
+    primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index))
+    primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals))
 
 
 def _bind_materials(geom, painted, materials):

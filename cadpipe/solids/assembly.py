@@ -24,7 +24,7 @@ import inspect
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 from types import MappingProxyType
 from typing import Any
 
@@ -179,6 +179,16 @@ def _is_plain(obj, mesh):
     return mesh.is_oriented and mesh.volume > 0 and mesh.n_bodies == 1
 
 
+def _batch_progress(progress, stage, before, size, total, done, calls):
+    """A group's batches as solids united so far of ``total``; then the joins of the
+    batches, level by level, as their own stage (joins done of all)."""
+    batches = (calls + 1) // 2
+    if done <= batches:
+        progress(stage, before + size * done // batches, total)
+    else:
+        progress(f"{stage}: joining {batches} batches", done - batches, batches - 1)
+
+
 class Assembly:
     """Named parts combined into one watertight solid.
 
@@ -322,19 +332,21 @@ class Assembly:
                 pieces.append((shape, shape.world))
             else:
                 booleans.append((index, reach))
-        solids = []
-        for k, (index, reach) in enumerate(booleans):
+        solids, so_far = [], 0
+        members, groups = sum(len(i) for i, _ in booleans), len(booleans)
+        stage = f"union of {members} solids in {groups} group{'s' * (groups != 1)}"
+        for index, reach in booleans:
+            batches = None
             if progress is not None:
-                members = sum(len(i) for i, _ in booleans)
-                groups = len(booleans)
-                progress(f"union of {members} solids in {groups} group{'s' * (groups != 1)}",
-                         k, groups)
+                progress(stage, so_far, members)
+                batches = partial(_batch_progress, progress, stage, so_far, len(index), members)
             solid = combine_cluster(
                 [adds[i].solid for i in index],
                 [c.solid if isinstance(c, _Shape) else c for c in (cuts[j] for j in reach)],
-                clips)
+                clips, batches)
             solid.num_tri()                       # manifold3d is lazy: work now, counted
             solids.append(solid)
+            so_far += len(index)
         if solids:
             import manifold3d
 
@@ -363,10 +375,14 @@ class Assembly:
         Parameters
         ----------
         progress : callable, optional
-            ``progress(stage, done, total)`` as each stage starts: ``"meshing <part>"``
-            (parts done so far of all), ``"meshing done"``, ``"union of <n> solids in
-            <k> groups"`` (groups of overlapping boxes done so far; none when no
-            boxes overlap), so a display can name the stage running.
+            ``progress(stage, done, total)`` as each stage starts and as it moves:
+            ``"meshing <part>"`` (parts done so far of all), ``"meshing done"``,
+            ``"union of <n> solids in <k> groups"`` (solids united so far of ``n``,
+            in groups of overlapping boxes; none when no boxes overlap: a group of
+            many is united in batches, so this moves within one group) and
+            ``"union of ... : joining <b> batches"`` (joins done so far of
+            ``b - 1``: the batches are joined in pairs, level by level), so a display
+            can name the stage running.
 
         Returns
         -------

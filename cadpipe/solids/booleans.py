@@ -170,12 +170,57 @@ def clusters(adds, cuts=None, clips=None):
     return work
 
 
-def combine_cluster(adds, cuts=(), clips=()):
-    """``(union of adds - union of cuts) & every clip``, one ``batch_boolean`` per operation."""
+#: a union of at least this many solids runs in batches, so that its progress can move
+BATCHED_UNION = 64
+
+
+def united(solids, progress=None):
+    """The union of ``solids`` (manifold3d).
+
+    One ``batch_boolean`` for a few (lazy, as manifold3d's operations are). For
+    :data:`BATCHED_UNION` or more, about sqrt(n) batches of neighbours (slabs along
+    the longest side of their boxes) are united one after the other, then joined
+    in pairs, level by level, each call computed at once, and ``progress(done,
+    total)`` is called after each of the ``2 * batches - 1`` calls: one manifold3d
+    call that runs for a minute shows no progress, and it holds the interpreter.
+    It costs no more than one call, and less for long crossing pipes (measured in
+    ``benchmarks/bench_build.py``, figures in ``docs/performance.md``).
+    """
     import manifold3d
 
     Manifold, Op = manifold3d.Manifold, manifold3d.OpType
-    piece = adds[0] if len(adds) == 1 else Manifold.batch_boolean(list(adds), Op.Add)
+    solids = list(solids)
+    if len(solids) < BATCHED_UNION:
+        return solids[0] if len(solids) == 1 else Manifold.batch_boolean(solids, Op.Add)
+    centres = bounding_boxes(solids).mean(axis=1)
+    axis = int(np.argmax(np.ptp(centres, axis=0)))
+    level = [[solids[k] for k in batch] for batch in
+             np.array_split(np.argsort(centres[:, axis], kind="stable"),
+                            round(np.sqrt(len(solids))))]
+    total, done = 2 * len(level) - 1, 0
+    while True:
+        pieces = []
+        for members in level:
+            piece = members[0] if len(members) == 1 else \
+                Manifold.batch_boolean(members, Op.Add)
+            if len(members) > 1:
+                piece.num_tri()                  # manifold3d is lazy: work now
+                done += 1
+                if progress is not None:
+                    progress(done, total)
+            pieces.append(piece)
+        if len(pieces) == 1:
+            return pieces[0]
+        level = [pieces[k:k + 2] for k in range(0, len(pieces), 2)]
+
+
+def combine_cluster(adds, cuts=(), clips=(), progress=None):
+    """``(union of adds - union of cuts) & every clip``, one ``batch_boolean`` per operation
+    (the union of many adds in batches: :func:`united`, with its ``progress``)."""
+    import manifold3d
+
+    Manifold, Op = manifold3d.Manifold, manifold3d.OpType
+    piece = united(adds, progress)
     if len(cuts):
         piece = Manifold.batch_boolean([piece, *cuts], Op.Subtract)
     if len(clips):
@@ -235,9 +280,10 @@ def exportable(solid, part_of_id=None, **mesh_options):
 
     What float32 cannot tell apart, a file merges: an edge shorter than
     :func:`float32_step` becomes a point (manifold3d's ``simplify`` collapses it,
-    moving the surface less than that), and copies of one point that the boolean
-    kept apart, where the solid touches itself (a pinch), become one vertex with
-    non-manifold edges (:func:`separated_pinches` moves each copy into its own
+    moving the surface less than that; those it leaves are collapsed too,
+    :func:`without_short_edges`), and copies of one point that the
+    boolean kept apart, where the solid touches itself (a pinch), become one vertex
+    with non-manifold edges (:func:`separated_pinches` moves each copy into its own
     fan). Triangles of zero area go with the collapses.
 
     Parameters
@@ -253,8 +299,40 @@ def exportable(solid, part_of_id=None, **mesh_options):
     mesh : Mesh
     """
     step = float32_step(solid.bounding_box())
-    mesh = Mesh.from_manifold(solid.simplify(step), part_of_id=part_of_id, **mesh_options)
+    mesh = Mesh.from_manifold(without_short_edges(solid.simplify(step), step),
+                              part_of_id=part_of_id, **mesh_options)
     return separated_pinches(mesh, step)
+
+
+def without_short_edges(solid, step):
+    """``solid`` with every edge shorter than ``step`` collapsed.
+
+    ``simplify`` leaves some, where collapsing them would fold a triangle over (56
+    of 290,000 in the union of 1,000 crossing pipes); a float32 file can give both
+    ends of such an edge one position (in whichever unit it is written) and weld
+    them, and the faces around them then meet at edges of more than two faces. The
+    ends of each run of short edges are put on one point, which moves the surface
+    less than ``step``, and manifold3d rebuilds the solid, collapsing each edge of
+    zero length and its two triangles as a manifold edge collapse.
+    """
+    import manifold3d
+
+    out = solid.to_mesh64()
+    vertices = np.array(out.vert_properties)
+    faces = np.asarray(out.tri_verts).astype(np.int64)
+    a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
+    short = np.linalg.norm(vertices[a, :3] - vertices[b, :3], axis=1) < step
+    if not short.any():
+        return solid
+    group = connected_labels(len(vertices), a[short], b[short])
+    _, first = np.unique(group, return_index=True)
+    vertices[:, :3] = vertices[first[group], :3]          # each run on its first vertex
+    arrays = {k: np.array(getattr(out, k), np.uint64)
+              for k in ("tri_verts", "merge_from_vert", "merge_to_vert", "run_index", "face_id")}
+    rebuilt = manifold3d.Manifold(manifold3d.Mesh64(
+        vert_properties=vertices, run_original_id=np.array(out.run_original_id, np.uint32),
+        **arrays))
+    return rebuilt if rebuilt.status() == manifold3d.Error.NoError else solid
 
 
 def separated_pinches(mesh, step):
