@@ -23,6 +23,7 @@ import struct
 from pathlib import Path as FilePath
 from types import MappingProxyType
 
+import numba
 import numpy as np
 
 from cadpipe import limits
@@ -99,6 +100,8 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normal
 
 def _colour_groups(painted):
     """[(labels, rgb)]: the labels that have faces, grouped by colour, in label order."""
+    if len(painted.names) == 1:                   # a part's faces, all of one label
+        return [([0], painted.colors[0])]
     used = np.flatnonzero(np.bincount(painted.labels, minlength=len(painted.names)))
     groups = {}
     for label in used:
@@ -130,8 +133,8 @@ class _Document:
                  "componentType": _FLOAT if array.dtype == np.float32 else _UINT,
                  "type": kind}
         if bounds:
-            entry["min"] = array.min(axis=0).tolist() if len(array) else [0.0] * 3
-            entry["max"] = array.max(axis=0).tolist() if len(array) else [0.0] * 3
+            low, high = _bounds(array) if len(array) else (np.zeros(3), np.zeros(3))
+            entry["min"], entry["max"] = low.tolist(), high.tolist()
         self.accessors.append(entry)
         return len(self.accessors) - 1
 
@@ -159,6 +162,18 @@ class _Document:
         fh.write(struct.pack("<I4s", self.length, b"BIN\0"))
         for array in self.arrays:
             fh.write(memoryview(array).cast("B"))
+
+
+@numba.njit(cache=True, nogil=True)
+def _bounds(points):
+    """Least and greatest coordinates of (N >= 1, 3) ``points``, in one pass (numpy's
+    ``min(axis=0)`` over rows of 3 took 14 ms per 500,000 rows, most of a plain write)."""
+    low, high = points[0].copy(), points[0].copy()
+    for i in range(1, len(points)):
+        for c in range(3):
+            low[c] = min(low[c], points[i, c])
+            high[c] = max(high[c], points[i, c])
+    return low, high
 
 
 # -- reading ---------------------------------------------------------------------
