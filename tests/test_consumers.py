@@ -211,7 +211,7 @@ ROUND_TRIP = ("usda", "usdc", "usdz", "glb", "3mf", "obj", "ply", "stl")
 #: formats that store part names (STL and PLY store none)
 NAMED = {"usda", "usdc", "usdz", "glb", "3mf", "obj"}
 #: formats that store colours (per face or per part)
-COLOURED = {"usda", "usdc", "usdz", "glb", "ply"}
+COLOURED = {"usda", "usdc", "usdz", "glb", "ply", "3mf"}
 
 
 @pytest.fixture(scope="module")

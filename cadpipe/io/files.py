@@ -20,9 +20,10 @@ from dataclasses import replace
 from pathlib import Path as FilePath
 from types import MappingProxyType
 
+import numba
 import numpy as np
 
-from cadpipe._rows import point_keys, unique_rows
+from cadpipe._rows import unique_points
 from cadpipe.errors import ExportError, InputError, MeshError
 from cadpipe.io.registry import exporters
 
@@ -205,9 +206,10 @@ def load_scene(path):
     """Read a mesh or scene file into a :class:`~cadpipe.io.scene.Scene`, Z up.
 
     GLB (:func:`cadpipe.io.gltf.read_glb`) and USD (``.usda``, ``.usdc``,
-    ``.usdz``, ``.usd``: :func:`cadpipe.io.usd.read_usd`) keep their parts,
-    names, colours and units; OBJ keeps its ``o`` objects and ``g`` groups; other
-    formats go through trimesh, one part per node of a scene (3MF objects).
+    ``.usdz``, ``.usd``: :func:`cadpipe.io.usd.read_usd`) and 3MF
+    (:func:`cadpipe.io.threemf.read_3mf`) keep their parts, names, colours and
+    units; OBJ keeps its ``o`` objects and ``g`` groups; other formats go through
+    trimesh.
     Exact duplicate vertices are welded (:func:`welded`). A file without units is in
     :data:`ASSUMED_UNITS` (STL millimetres, as slicers read it) and its mesh
     attributes say ``units_assumed``. Raises :class:`ExportError` for a missing
@@ -233,6 +235,10 @@ def load_scene(path):
         from cadpipe.io.trimesh_formats import read_obj
 
         scene = read_obj(path)
+    elif key == "3mf":
+        from cadpipe.io.threemf import read_3mf
+
+        scene = read_3mf(path)
     else:
         from cadpipe.io.stl import read_binary_stl
 
@@ -250,14 +256,48 @@ def file_mesh(vertices, faces, path, name, **options):
     from cadpipe._validate import MAX_MAGNITUDE
 
     vertices = np.asarray(vertices, dtype=np.float64)
-    if not (np.abs(vertices) <= MAX_MAGNITUDE).all():
+    if not _within(vertices.reshape(-1), MAX_MAGNITUDE):
         raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
                         f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
+    for array in (vertices, faces):       # the reader's own arrays: the mesh need not copy
+        if isinstance(array, np.ndarray):
+            array.flags.writeable = False
     try:
         return Mesh(vertices, faces, **options)
     except InputError as exc:
         raise MeshError(exc.message, key=exc.key, file=path, part=name,
                         index=exc.index) from None
+
+
+@numba.njit(cache=True, nogil=True)
+def _within(values, bound):
+    """True when every value is a number no larger than ``bound`` in magnitude (NaN is not)."""
+    for value in values:
+        if not abs(value) <= bound:
+            return False
+    return True
+
+
+def placed_points(points, matrix):
+    """(N, 3) float ``points`` (any strides) moved by the 4x4 ``matrix`` as float64 (the
+    points themselves for the identity), in one compiled pass: numpy's ``points @ M.T``
+    goes through BLAS, whose threads spin on a busy machine (0.2 s of CPU for 500,000
+    points at a load of 10, against 4 ms in one thread)."""
+    matrix = np.asarray(matrix, dtype=np.float64)
+    if np.array_equal(matrix, np.eye(4)):
+        return points
+    out = np.empty((len(points), 3))
+    _place(points if points.dtype in (np.float32, np.float64) else points.astype(float),
+           matrix, out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _place(points, matrix, out):
+    for k in range(len(points)):
+        x, y, z = points[k, 0], points[k, 1], points[k, 2]
+        for r in range(3):
+            out[k, r] = matrix[r, 0] * x + matrix[r, 1] * y + matrix[r, 2] * z + matrix[r, 3]
 
 
 def welded(mesh):
@@ -270,8 +310,8 @@ def welded(mesh):
     from cadpipe.geometry.mesh import Mesh
 
     rows = np.ascontiguousarray(mesh.vertices)
-    # keyed to 8 decimals, as trimesh's merge_vertices: text formats round
-    first, inverse = unique_rows(point_keys(rows, 8))
+    # to 8 decimals, as trimesh's merge_vertices: text formats round
+    first, inverse = unique_points(rows, 8)
     if len(first) == len(rows):
         return mesh
     return Mesh.trusted(rows[first], inverse[mesh.faces], face_part=mesh.face_part,
