@@ -268,24 +268,27 @@ def _member(archive, name, path):
 
 
 class _Models:
-    """The package's model parts, each read once, when first referenced."""
+    """The package's model parts, each read once, when first referenced; ``spent``: the
+    triangles and array bytes their tables hold so far (all parts count against the
+    budgets together)."""
 
     def __init__(self, archive, path):
         self.archive, self.path, self.read = archive, path, {}
+        self.spent = [0, 0]
 
     def get(self, part):
         part = part.lstrip("/")
         if part not in self.read:
             data = _member(self.archive, part, self.path)
-            self.read[part] = _parse_model(data, part, self.path)
+            self.read[part] = _parse_model(data, part, self.path, self.spent)
         return self.read[part]
 
 
-def _parse_model(data, part, path):
+def _parse_model(data, part, path, spent):
     """A model part's :class:`_Model`."""
     tables = {}
     try:
-        skeleton = _tables_taken_out(data, part, path, tables)
+        skeleton, totals = _tables_taken_out(data, part, path, tables, spent)
     except _Unscannable:
         skeleton = None
     # a comment, CDATA section, DTD or processing instruction between the tables could
@@ -295,11 +298,12 @@ def _parse_model(data, part, path):
         if head.startswith(b"<?xml"):
             head = head[head.find(b"?>"):]
         if not any(mark in head for mark in (b"<!", b"<?", b"]]>")):
+            spent[:] = totals
             return _read_model(_xml(skeleton, part, path), tables, part, path)
     if b"<!DOCTYPE" in data or b"<!ENTITY" in data:
         raise MeshError(f"{part}: declares a DTD, which 3MF does not allow", file=path)
-    limits.check("max_triangles", data.count(b"<triangle"), f"reading {part}", file=path,
-                 at_least=True)
+    spent[0] += data.count(b"<triangle")
+    limits.check("max_triangles", spent[0], f"reading {part}", file=path, at_least=True)
     return _read_model(_xml(data, part, path), {}, part, path)
 
 
@@ -318,15 +322,17 @@ def _xml(text, part, path):
     return root
 
 
-def _tables_taken_out(data, part, path, tables):
+def _tables_taken_out(data, part, path, tables, spent):
     """``data`` with each ``<vertices>`` and ``<triangles>`` table read by the compiled
     scan into ``tables`` (numbered) and replaced by an empty element marked with its
-    number: what is left is a few elements per object for ElementTree. Each table's
-    rows are counted first (:func:`_extent`) and checked against the budgets
+    number, and the triangles and bytes of arrays read with those ``spent`` before:
+    what is left is a few elements per object for ElementTree. Each table's rows
+    are counted first (:func:`_extent`) and checked against the budgets
     (``max_triangles``; ``max_unpacked_bytes`` for its arrays) before it is read.
     Raises :class:`_Unscannable` for a table holding markup the scan does not read."""
     text = np.frombuffer(data, np.uint8)
-    pieces, last, triangles, unpacked = [], 0, 0, 0
+    pieces, last = [], 0
+    triangles, unpacked = spent
     marker = b'<%s xmlns:cadpipe_block="urn:cadpipe:block" cadpipe_block:n="%d"/>'
     while (match := _TABLE.search(data, last)) is not None:
         name = match.group(1)
@@ -350,7 +356,7 @@ def _tables_taken_out(data, part, path, tables):
         pieces += [data[last:match.start()], marker % (name, len(tables) - 1)]
         last = end
     pieces.append(data[last:])
-    return b"".join(pieces)
+    return b"".join(pieces), [triangles, unpacked]
 
 
 def _local(tag):
