@@ -81,16 +81,6 @@ def assert_same_scene(a, b):
             np.testing.assert_array_equal(p.mesh.face_part, q.mesh.face_part)
 
 
-def two_part_scene():
-    duct = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [40, 0, 10], [60, 30, 20]], step=2),
-                        4, sides=16).mesh()
-    rod = cadpipe.Pipe([[0, 30, 0], [0, 30, 50]], 3, sides=8).mesh()
-    move = np.eye(4)
-    move[:3, 3] = [10, 0, 5]
-    return Scene("cell", (ScenePart("duct", duct, color=(1.0, 0.0, 0.0), transform=move),
-                          ScenePart("rod", rod, color=(0.0, 0.0, 1.0))), units="mm")
-
-
 # -- 3MF: the compiled scan reads what ElementTree reads ----------------------------
 def variants(folder):
     """3MF models in the forms writers produce and the spec allows."""
@@ -176,8 +166,9 @@ def test_3mf_numbers_read_as_python_reads_them(tmp_path_factory, values, form):
 
 
 @pytest.mark.parametrize("writer", ["cadpipe", "trimesh", "lib3mf"])
-def test_3mf_geometry_matches_trimesh_for_files_of_each_writer(tmp_path, writer):
-    scene = two_part_scene()
+def test_3mf_geometry_matches_trimesh_for_files_of_each_writer(tmp_path, writer,
+                                                                two_part_scene):
+    scene = two_part_scene
     target = tmp_path / "cell.3mf"
     if writer == "cadpipe":
         export(scene, target)
@@ -229,8 +220,8 @@ def ctypes_ints(values):
     return (ctypes.c_uint32 * 3)(*map(int, values))
 
 
-def test_3mf_round_trip_keeps_names_colours_and_labels_of_a_union(tmp_path):
-    scene = two_part_scene()
+def test_3mf_round_trip_keeps_names_colours_and_labels_of_a_union(tmp_path, two_part_scene):
+    scene = two_part_scene
     joined = cadpipe.Mesh.concatenate([p.world_mesh().with_parts((p.name,))
                                        for p in scene.parts])
     union = Scene("u", (ScenePart("union", joined),), units="mm",
@@ -317,8 +308,8 @@ def test_3mf_builds_past_the_budgets_are_refused_before_they_are_placed(tmp_path
     assert caught.value.file == str(many)
 
 
-def test_3mf_reader_errors_are_cadpipe_errors_for_truncated_packages(tmp_path):
-    export(two_part_scene(), tmp_path / "cell.3mf")
+def test_3mf_reader_errors_are_cadpipe_errors_for_truncated_packages(tmp_path, two_part_scene):
+    export(two_part_scene, tmp_path / "cell.3mf")
     data = (tmp_path / "cell.3mf").read_bytes()
     for cut in (len(data) // 3, len(data) // 2, len(data) - 30):
         (tmp_path / "cut.3mf").write_bytes(data[:cut])
@@ -338,3 +329,48 @@ def test_welding_finds_the_points_np_unique_finds(points, repeat):
     _, expected_first = np.unique(rounded, axis=0, return_index=True)
     np.testing.assert_array_equal(first, np.sort(expected_first))
     np.testing.assert_array_equal(rounded[first][inverse], rounded)
+
+
+# -- GLB: malformed accessors ----------------------------------------------------------
+def _glb_edited(folder, change):
+    """cadpipe's GLB of two boxes of two colours (two primitives), its JSON edited."""
+    import json
+    import struct
+
+    box = cadpipe.primitives.box(1)
+    boxes = cadpipe.Mesh.concatenate([box.with_parts(("a",)),
+                                      box.transformed(np.eye(4) + np.eye(4, k=3) * 3)
+                                      .with_parts(("b",))])
+    path = export(Scene("s", (ScenePart("boxes", boxes),),
+                        colors={"a": (1.0, 0, 0), "b": (0, 0, 1.0)}), folder / "x.glb")
+    data = path.read_bytes()
+    length = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + length])
+    change(doc)
+    text = json.dumps(doc).encode()
+    text += b" " * (-len(text) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text + data[20 + length:]
+    path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    return path
+
+
+def _vec2(doc):
+    doc["accessors"][doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]["type"] = \
+        "VEC2"
+
+
+def _shared_positions_shrunk(doc):
+    """Both primitives share one POSITION accessor: give the first a shorter copy of it."""
+    position = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+    doc["accessors"].append(dict(doc["accessors"][position], count=4))
+    doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = len(doc["accessors"]) - 1
+
+
+@pytest.mark.parametrize("change", [_vec2, _shared_positions_shrunk])
+def test_a_glb_with_malformed_accessors_is_a_mesh_error(tmp_path, change):
+    path = _glb_edited(tmp_path, lambda doc: None)
+    assert len(load_scene(path).parts[0].mesh.part_names) == 2     # as written: it reads
+    path = _glb_edited(tmp_path, change)
+    with pytest.raises(MeshError) as caught:
+        load_scene(path)
+    assert caught.value.file == str(path)

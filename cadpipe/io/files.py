@@ -248,25 +248,40 @@ def load_scene(path):
     return replace(scene, parts=tuple(replace(p, mesh=welded(p.mesh)) for p in scene.parts))
 
 
-def file_mesh(vertices, faces, path, name, **options):
+def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), attributes=None):
     """A :class:`~cadpipe.Mesh` of part ``name`` read from ``path``; :class:`MeshError`
-    (naming the file and part) for non-finite coordinates or bad face indices."""
+    (naming the file and part) for non-finite coordinates, bad face indices or labels.
+
+    What a file can get wrong is checked here, in compiled passes over the
+    reader's own arrays (kept as they are, not copied); ``Mesh``'s own checks,
+    numpy reductions over rows of 3, took most of the time of reading a GLB.
+    """
     from cadpipe.geometry.mesh import Mesh
 
     from cadpipe._validate import MAX_MAGNITUDE
 
-    vertices = np.asarray(vertices, dtype=np.float64)
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or \
+            faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
+        raise MeshError(f"expected (N, 3) points and (F, 3) vertex indices, got shapes "
+                        f"{vertices.shape} and {faces.shape}", file=path, part=name)
     if not _within(vertices.reshape(-1), MAX_MAGNITUDE):
         raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
                         f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
-    for array in (vertices, faces):       # the reader's own arrays: the mesh need not copy
-        if isinstance(array, np.ndarray):
-            array.flags.writeable = False
-    try:
-        return Mesh(vertices, faces, **options)
-    except InputError as exc:
-        raise MeshError(exc.message, key=exc.key, file=path, part=name,
-                        index=exc.index) from None
+    faces = faces.astype(np.int64, copy=False)
+    low, high = _index_range(faces.reshape(-1))
+    if faces.size and (low < 0 or high >= len(vertices)):
+        raise MeshError(f"face indices must lie in [0, {len(vertices) - 1}], got "
+                        f"[{low}, {high}]", key="faces", file=path, part=name)
+    if face_part is not None:
+        face_part = np.asarray(face_part).astype(np.int32, copy=False)
+        low, high = _index_range(face_part)
+        if face_part.shape != (len(faces),) or (len(faces) and (
+                low < 0 or high >= len(part_names))):
+            raise MeshError("face labels must point into the part names", key="face_part",
+                            file=path, part=name)
+    return Mesh.trusted(vertices, faces, face_part=face_part, part_names=part_names,
+                        attributes=attributes)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -276,6 +291,17 @@ def _within(values, bound):
         if not abs(value) <= bound:
             return False
     return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _index_range(values):
+    """(least, greatest) of integer ``values`` ((0, -1) for none), in one pass."""
+    low, high = 0, -1
+    if len(values):
+        low = high = values[0]
+    for value in values:
+        low, high = min(low, value), max(high, value)
+    return low, high
 
 
 def placed_points(points, matrix):
@@ -314,8 +340,22 @@ def welded(mesh):
     first, inverse = unique_points(rows, 8)
     if len(first) == len(rows):
         return mesh
-    return Mesh.trusted(rows[first], inverse[mesh.faces], face_part=mesh.face_part,
+    faces = np.empty_like(mesh.faces)
+    _renumber(mesh.faces.reshape(-1), inverse, faces.reshape(-1))
+    return Mesh.trusted(rows[first], faces, face_part=mesh.face_part,
                         part_names=mesh.part_names, attributes=mesh.attributes)
+
+
+@numba.njit(cache=True, nogil=True)
+def _renumber(corners, inverse, out):
+    """``out = inverse[corners]``, reading ``inverse`` only past its identity prefix (the
+    copies a writer split off are mostly at the end: a GLB's crease vertices)."""
+    same = 0
+    while same < len(inverse) and inverse[same] == same:
+        same += 1
+    for c in range(len(corners)):
+        v = corners[c]
+        out[c] = v if v < same else inverse[v]
 
 
 def _trimesh_scene(path, key):

@@ -310,6 +310,8 @@ def _gltf_parts(doc, order, binary):
             if primitive.get("mode", 4) != 4:
                 continue                     # points and lines hold no triangles
             vertices = _accessor(doc, binary, primitive["attributes"]["POSITION"])
+            if vertices.shape[1:] != (3,):
+                raise ValueError("a POSITION accessor is not VEC3")
             faces = (_accessor(doc, binary, primitive["indices"]) if "indices" in primitive
                      else np.arange(len(vertices))).astype(np.int64).reshape(-1, 3)
             material = doc.get("materials", [])[primitive["material"]] \
