@@ -292,6 +292,9 @@ def _crease_rows(vertices, faces, normals, on_crease, cos_full):
                 slot_taken = True
                 normals[v, 0], normals[v, 1], normals[v, 2] = \
                     summed[c, 0], summed[c, 1], summed[c, 2]
+            elif summed[c, 0] == normals[v, 0] and summed[c, 1] == normals[v, 1] and \
+                    summed[c, 2] == normals[v, 2]:       # the vertex normal a degenerate
+                row[c] = v                               # face's corner keeps
             else:
                 row[c] = n_vertices + extra
                 extra_of[extra] = c
