@@ -1,7 +1,7 @@
 """Reading, checking and writing at size: cadpipe beside its peers, and peak memory.
 
-Comparisons in one process, interleaved A B A B (medians of ``--runs``, ratios
-cadpipe / peer; the load average is printed with them):
+Comparisons in one process, interleaved A B A B (medians of ``--runs`` of wall and
+CPU seconds, ratios cadpipe / peer; the load average is printed with them):
 
 - ``cadpipe check`` (load the STL, then :func:`cadpipe.check_mesh`: topology,
   orientation, volume, self-intersections, nested shells) against pymeshlab
@@ -9,7 +9,8 @@ cadpipe / peer; the load average is printed with them):
   self-intersecting-face selection; and, on two crossing pipes, whether both
   flag the same faces;
 - ``Mesh.load`` against ``trimesh.load(path, force="mesh")`` (which merges
-  vertices, as cadpipe welds them) on the same pipe as STL, OBJ, PLY, 3MF and GLB;
+  vertices, as cadpipe welds them; in a GLB only where their normals agree too) on
+  the same pipe as STL, OBJ, PLY, 3MF and GLB;
 - GLB and ``.usdc`` with normals against the same write without them, against
   trimesh's GLB export and a plain usd-core stage (points and indices only), and
   both formats written from one mesh (the shading is computed once and shared).
@@ -20,7 +21,8 @@ handed back to the system first, and the writer warmed up on a small pipe), agai
 the size of the mesh's own arrays (vertices and faces), and numpy's own peak
 (tracemalloc sees numpy's buffers, not usd-core's).
 
-Run: .venv/bin/python benchmarks/bench_io.py [--runs 5] [--speed-points 20000] [--points 200000]
+Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_io.py --speed-only [--runs 5]
+     [--speed-points 20000 (1M triangles)]
      .venv/bin/python benchmarks/bench_io.py --memory-only --points 2000000
 """
 
@@ -39,6 +41,7 @@ import numpy as np
 
 import cadpipe
 from cadpipe.io.files import export, load_mesh
+from cadpipe.io.normals import shading_normals
 from cadpipe.solids.intersect import self_intersections
 from cadpipe.solids.validity import check_mesh
 
@@ -60,14 +63,20 @@ def wavy_pipe(points, sides):
 
 
 def interleaved(runs, **contenders):
-    """{name: median seconds}: each contender once per round, rounds in turn (A B A B)."""
+    """{name: (median wall s, median CPU s)}: each contender once untimed (compilation,
+    caches), then once per round, rounds in turn (A B A B). CPU time is the process's,
+    so it includes any thread a contender leaves spinning (OpenBLAS's do, after a
+    matrix product, on a busy machine): run with ``OPENBLAS_NUM_THREADS=1`` to keep
+    that out of the next contender's figure."""
+    for call in contenders.values():
+        call()
     times = {name: [] for name in contenders}
     for _ in range(runs):
         for name, call in contenders.items():
-            start = time.perf_counter()
+            wall, cpu = time.perf_counter(), time.process_time()
             call()
-            times[name].append(time.perf_counter() - start)
-    return {name: float(np.median(t)) for name, t in times.items()}
+            times[name].append((time.perf_counter() - wall, time.process_time() - cpu))
+    return {name: tuple(np.median(t, axis=0)) for name, t in times.items()}
 
 
 def pymeshlab_check(path):
@@ -82,6 +91,8 @@ def pymeshlab_check(path):
 
 
 def trimesh_load(path):
+    """trimesh's load, which merges vertices as cadpipe welds them (``process=True``;
+    a GLB's only where the normals agree too)."""
     import trimesh
 
     return trimesh.load(path, force="mesh")
@@ -178,10 +189,14 @@ def speed(runs, points):
         t = interleaved(runs, cadpipe=lambda: cadpipe_split(colours),
                         numpy=lambda: numpy_split(colours))
         rows.append(("PLY 3-colour vertex split", t["cadpipe"], "np.unique", t["numpy"]))
+        t = interleaved(runs, normals=lambda: shading_normals(fresh(mesh)))
+        rows.append(("shading normals alone", t["normals"], "-", (np.nan, np.nan)))
         findings = same_findings(folder)
-    print(f"{'what':26s} {'cadpipe s':>10s}  {'peer':16s} {'peer s':>8s} {'ratio':>6s}")
-    for what, ours, peer, theirs in rows:
-        print(f"{what:26s} {ours:10.3f}  {peer:16s} {theirs:8.3f} {ours / theirs:6.2f}")
+    print(f"{'what':26s} {'cadpipe wall':>12s} {'CPU':>7s}  {'peer':16s} {'wall':>7s} "
+          f"{'CPU':>7s}  {'ratio wall':>10s} {'CPU':>6s}")
+    for what, (ours, ours_cpu), peer, (theirs, theirs_cpu) in rows:
+        print(f"{what:26s} {ours:12.3f} {ours_cpu:7.3f}  {peer:16s} {theirs:7.3f} "
+              f"{theirs_cpu:7.3f}  {ours / theirs:10.2f} {ours_cpu / theirs_cpu:6.2f}")
     ours, theirs, same = findings
     print(f"crossing pipes: faces in crossing pairs, cadpipe {ours}, pymeshlab {theirs}, "
           f"same faces: {same}")

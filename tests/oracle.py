@@ -116,3 +116,36 @@ def fcl_bvh(mesh):
     bvh.addSubModel(np.array(mesh.vertices), np.array(mesh.faces))
     bvh.endModel()
     return bvh
+
+
+def crease_normals(vertices, faces, crease_angle):
+    """(3F, 3) shading normal at each corner of ``faces.ravel()`` by the crease rule, the
+    slow and plain way: per corner, the faces around its vertex whose normals lie within
+    ``crease_angle`` degrees of its own face's, summed weighted by their angle at the
+    vertex (``np.arctan2``), made unit. A corner of a degenerate face takes the sum
+    over all faces at its vertex."""
+    v, f = np.asarray(vertices, np.float64), np.asarray(faces)
+    corners = v[f]                                                   # (F, 3, 3)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normal, axis=1)
+    unit = normal / np.where(length > 0, length, 1.0)[:, None]
+    angles = np.empty(f.shape)
+    for k in range(3):
+        u = corners[:, (k + 1) % 3] - corners[:, k]
+        w = corners[:, (k + 2) % 3] - corners[:, k]
+        angles[:, k] = np.arctan2(np.linalg.norm(np.cross(u, w), axis=1),
+                                  np.einsum("ij,ij->i", u, w))
+    at_vertex = [[] for _ in range(len(v))]
+    for face, row in enumerate(f):
+        for k, vertex in enumerate(row):
+            at_vertex[vertex].append((face, k))
+    limit = np.cos(np.radians(crease_angle)) - 1e-6
+    out = np.zeros((3 * len(f), 3))
+    for face, row in enumerate(f):
+        for k, vertex in enumerate(row):
+            around = np.array(at_vertex[vertex])
+            near = unit[around[:, 0]] @ unit[face] >= limit if length[face] > 0 else True
+            picked = around[near] if length[face] > 0 else around
+            total = (unit[picked[:, 0]] * angles[picked[:, 0], picked[:, 1]][:, None]).sum(0)
+            out[3 * face + k] = total / max(np.linalg.norm(total), 1e-300)
+    return out

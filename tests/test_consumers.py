@@ -20,7 +20,7 @@ from cadpipe.cli import main
 from cadpipe.cli.welding_cell import run_demo
 from cadpipe.io.files import export, load_scene
 from cadpipe.io.flatten import labelled
-from cadpipe.io.scene import Scene, ScenePart, as_scene
+from cadpipe.io.scene import as_scene
 
 ROOT = FilePath(__file__).resolve().parent.parent
 EXAMPLES = sorted(p for p in (ROOT / "assets" / "examples").iterdir()
@@ -281,17 +281,6 @@ ROUND_TRIP = ("usda", "usdc", "usdz", "glb", "3mf", "obj", "ply", "stl")
 NAMED = {"usda", "usdc", "usdz", "glb", "3mf", "obj"}
 #: formats that store colours (per face or per part)
 COLOURED = {"usda", "usdc", "usdz", "glb", "ply", "3mf"}
-
-
-@pytest.fixture(scope="module")
-def two_part_scene():
-    duct = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [40, 0, 10], [60, 30, 20]], step=2),
-                        4, sides=16).mesh()
-    rod = cadpipe.Pipe([[0, 30, 0], [0, 30, 50]], 3, sides=8).mesh()
-    move = np.eye(4)
-    move[:3, 3] = [10, 0, 5]
-    return Scene("cell", (ScenePart("duct", duct, color=(1.0, 0.0, 0.0), transform=move),
-                          ScenePart("rod", rod, color=(0.0, 0.0, 1.0))), units="mm")
 
 
 @pytest.mark.parametrize("suffix", ROUND_TRIP)

@@ -23,6 +23,7 @@ from cadpipe.io.stl import write_stl
 from cadpipe.io.text import ascii_rows, float32_decimal
 from cadpipe.io.gltf import gltf_root
 from cadpipe.io.scene import Scene, ScenePart, as_scene
+from oracle import crease_normals
 
 BUILT_IN = ("stl", "usda", "usdc", "usdz", "3mf", "glb", "obj", "ply")
 MESH_FORMATS = ("stl", "3mf", "glb", "obj", "ply")
@@ -206,12 +207,14 @@ def test_round_tube_shades_smooth_and_keeps_hard_caps():
     # side corners point straight out of the axis; cap corners along it
     np.testing.assert_allclose(normals[~on_cap, :2], radial[~on_cap], atol=1e-6)
     np.testing.assert_allclose(np.abs(normals[on_cap, 2]), 1.0, atol=1e-6)
-    # indexed: one normal per vertex, plus a side normal per rim vertex and one per cap,
-    # each distinct normal stored once (the two ends of a straight pipe share side normals)
+    # indexed: one normal per vertex, plus one row per rim vertex for its second normal
+    # (side and cap), never a row equal to its vertex's own
     long_pipe = cadpipe.Pipe(np.c_[np.zeros((10, 2)), np.arange(10)], 0.5, sides=16).mesh()
-    extra = shading_normals(long_pipe).normals[len(long_pipe.vertices):]
-    assert 16 + 2 <= len(extra) <= 2 * 16 + 2
-    assert len(np.unique(extra, axis=0)) == len(extra)
+    shading = shading_normals(long_pipe)
+    extra = shading.normals[len(long_pipe.vertices):]
+    assert len(extra) == 2 * 16
+    assert len(np.unique(shading.vertex)) == len(extra)
+    assert not (extra == shading.normals[shading.vertex]).all(axis=1).any()
 
 
 def test_low_poly_duct_keeps_its_facets():
@@ -252,6 +255,45 @@ def test_shading_normals_are_unit_and_face_outward(sides, angle):
     np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-6)
     facing = np.einsum("ij,ij->i", normals, mesh.face_normals.repeat(3, axis=0))
     assert (facing > 0).all()
+
+
+def shading_test_mesh(kind, seed):
+    """A mesh with smooth stretches, creases and (``"degenerate"``) zero-area faces."""
+    rng = np.random.default_rng(seed)
+    if kind == "pipe":
+        points = np.cumsum(rng.normal(size=(4, 3)), axis=0)
+        return cadpipe.Pipe(points, 0.1, sides=int(rng.integers(3, 30))).mesh()
+    shapes = {"box": lambda: trimesh.creation.box(),
+              "sphere": lambda: trimesh.creation.icosphere(subdivisions=2),
+              "cylinder": lambda: trimesh.creation.cylinder(0.5, 1.0,
+                                                            sections=int(rng.integers(5, 40))),
+              "degenerate": lambda: trimesh.creation.cylinder(0.5, 1.0, sections=12)}
+    tm = shapes[kind]()
+    vertices = tm.vertices + rng.normal(scale=0.01, size=tm.vertices.shape)
+    faces = tm.faces
+    if kind == "degenerate":       # a sliver of zero area and a face on one point
+        faces = np.vstack([faces, [faces[0, 0], faces[0, 1], faces[0, 1]],
+                           [faces[1, 0], faces[1, 0], faces[1, 0]]])
+    return cadpipe.Mesh.trusted(vertices, faces)
+
+
+@settings(max_examples=40, deadline=None)
+@given(kind=st.sampled_from(["pipe", "box", "sphere", "cylinder", "degenerate"]),
+       seed=st.integers(0, 2**31), angle=st.floats(0, 180))
+def test_shading_normals_match_the_crease_rule(kind, seed, angle):
+    mesh = shading_test_mesh(kind, seed)
+    shading = shading_normals(mesh, angle)
+    expected = crease_normals(mesh.vertices, mesh.faces, angle)
+    np.testing.assert_allclose(shading.normals[shading.corner_index], expected, atol=2e-6)
+    # each extra row is a vertex's further normal: never one its vertex already has
+    extra = shading.normals[len(mesh.vertices):]
+    assert not (extra == shading.normals[shading.vertex]).all(axis=1).any()
+    pairs = np.column_stack([shading.vertex, extra.view(np.int32)])
+    assert len(np.unique(pairs, axis=0)) == len(pairs)
+    # the glTF split: the same triangles, each corner with its normal
+    vertices, faces, normals = split_for_normals(mesh, angle)
+    np.testing.assert_array_equal(vertices[faces], mesh.triangles.astype(np.float32))
+    np.testing.assert_array_equal(normals[faces.ravel()], shading.normals[shading.corner_index])
 
 
 # -- mesh formats ----------------------------------------------------------------

@@ -20,9 +20,10 @@ from dataclasses import replace
 from pathlib import Path as FilePath
 from types import MappingProxyType
 
+import numba
 import numpy as np
 
-from cadpipe._rows import point_keys, unique_rows
+from cadpipe._rows import unique_points
 from cadpipe.errors import ExportError, InputError, MeshError
 from cadpipe.io.registry import exporters
 
@@ -205,9 +206,10 @@ def load_scene(path):
     """Read a mesh or scene file into a :class:`~cadpipe.io.scene.Scene`, Z up.
 
     GLB (:func:`cadpipe.io.gltf.read_glb`) and USD (``.usda``, ``.usdc``,
-    ``.usdz``, ``.usd``: :func:`cadpipe.io.usd.read_usd`) keep their parts,
-    names, colours and units; OBJ keeps its ``o`` objects and ``g`` groups; other
-    formats go through trimesh, one part per node of a scene (3MF objects).
+    ``.usdz``, ``.usd``: :func:`cadpipe.io.usd.read_usd`) and 3MF
+    (:func:`cadpipe.io.threemf.read_3mf`) keep their parts, names, colours and
+    units; OBJ keeps its ``o`` objects and ``g`` groups; other formats go through
+    trimesh.
     Exact duplicate vertices are welded (:func:`welded`). A file without units is in
     :data:`ASSUMED_UNITS` (STL millimetres, as slicers read it) and its mesh
     attributes say ``units_assumed``. Raises :class:`ExportError` for a missing
@@ -233,6 +235,10 @@ def load_scene(path):
         from cadpipe.io.trimesh_formats import read_obj
 
         scene = read_obj(path)
+    elif key == "3mf":
+        from cadpipe.io.threemf import read_3mf
+
+        scene = read_3mf(path)
     else:
         from cadpipe.io.stl import read_binary_stl
 
@@ -242,22 +248,82 @@ def load_scene(path):
     return replace(scene, parts=tuple(replace(p, mesh=welded(p.mesh)) for p in scene.parts))
 
 
-def file_mesh(vertices, faces, path, name, **options):
+def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), attributes=None):
     """A :class:`~cadpipe.Mesh` of part ``name`` read from ``path``; :class:`MeshError`
-    (naming the file and part) for non-finite coordinates or bad face indices."""
+    (naming the file and part) for non-finite coordinates, bad face indices or labels.
+
+    What a file can get wrong is checked here, in compiled passes over the
+    reader's own arrays (kept as they are, not copied); ``Mesh``'s own checks,
+    numpy reductions over rows of 3, took most of the time of reading a GLB.
+    """
     from cadpipe.geometry.mesh import Mesh
 
     from cadpipe._validate import MAX_MAGNITUDE
 
-    vertices = np.asarray(vertices, dtype=np.float64)
-    if not (np.abs(vertices) <= MAX_MAGNITUDE).all():
+    vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or \
+            faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
+        raise MeshError(f"expected (N, 3) points and (F, 3) vertex indices, got shapes "
+                        f"{vertices.shape} and {faces.shape}", file=path, part=name)
+    if not _within(vertices.reshape(-1), MAX_MAGNITUDE):
         raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
                         f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
-    try:
-        return Mesh(vertices, faces, **options)
-    except InputError as exc:
-        raise MeshError(exc.message, key=exc.key, file=path, part=name,
-                        index=exc.index) from None
+    faces = faces.astype(np.int64, copy=False)
+    low, high = _index_range(faces.reshape(-1))
+    if faces.size and (low < 0 or high >= len(vertices)):
+        raise MeshError(f"face indices must lie in [0, {len(vertices) - 1}], got "
+                        f"[{low}, {high}]", key="faces", file=path, part=name)
+    if face_part is not None:
+        face_part = np.asarray(face_part).astype(np.int32, copy=False)
+        low, high = _index_range(face_part)
+        if face_part.shape != (len(faces),) or (len(faces) and (
+                low < 0 or high >= len(part_names))):
+            raise MeshError("face labels must point into the part names", key="face_part",
+                            file=path, part=name)
+    return Mesh.trusted(vertices, faces, face_part=face_part, part_names=part_names,
+                        attributes=attributes)
+
+
+@numba.njit(cache=True, nogil=True)
+def _within(values, bound):
+    """True when every value is a number no larger than ``bound`` in magnitude (NaN is not)."""
+    for value in values:
+        if not abs(value) <= bound:
+            return False
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _index_range(values):
+    """(least, greatest) of integer ``values`` ((0, -1) for none), in one pass."""
+    low, high = 0, -1
+    if len(values):
+        low = high = values[0]
+    for value in values:
+        low, high = min(low, value), max(high, value)
+    return low, high
+
+
+def placed_points(points, matrix):
+    """(N, 3) float ``points`` (any strides) moved by the 4x4 ``matrix`` as float64 (the
+    points themselves for the identity), in one compiled pass: numpy's ``points @ M.T``
+    goes through BLAS, whose threads spin on a busy machine (0.2 s of CPU for 500,000
+    points at a load of 10, against 4 ms in one thread)."""
+    matrix = np.asarray(matrix, dtype=np.float64)
+    if np.array_equal(matrix, np.eye(4)):
+        return points
+    out = np.empty((len(points), 3))
+    _place(points if points.dtype in (np.float32, np.float64) else points.astype(float),
+           matrix, out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _place(points, matrix, out):
+    for k in range(len(points)):
+        x, y, z = points[k, 0], points[k, 1], points[k, 2]
+        for r in range(3):
+            out[k, r] = matrix[r, 0] * x + matrix[r, 1] * y + matrix[r, 2] * z + matrix[r, 3]
 
 
 def welded(mesh):
@@ -270,12 +336,26 @@ def welded(mesh):
     from cadpipe.geometry.mesh import Mesh
 
     rows = np.ascontiguousarray(mesh.vertices)
-    # keyed to 8 decimals, as trimesh's merge_vertices: text formats round
-    first, inverse = unique_rows(point_keys(rows, 8))
+    # to 8 decimals, as trimesh's merge_vertices: text formats round
+    first, inverse = unique_points(rows, 8)
     if len(first) == len(rows):
         return mesh
-    return Mesh.trusted(rows[first], inverse[mesh.faces], face_part=mesh.face_part,
+    faces = np.empty_like(mesh.faces)
+    _renumber(mesh.faces.reshape(-1), inverse, faces.reshape(-1))
+    return Mesh.trusted(rows[first], faces, face_part=mesh.face_part,
                         part_names=mesh.part_names, attributes=mesh.attributes)
+
+
+@numba.njit(cache=True, nogil=True)
+def _renumber(corners, inverse, out):
+    """``out = inverse[corners]``, reading ``inverse`` only past its identity prefix (the
+    copies a writer split off are mostly at the end: a GLB's crease vertices)."""
+    same = 0
+    while same < len(inverse) and inverse[same] == same:
+        same += 1
+    for c in range(len(corners)):
+        v = corners[c]
+        out[c] = v if v < same else inverse[v]
 
 
 def _trimesh_scene(path, key):
@@ -317,16 +397,8 @@ def _trimesh_scene(path, key):
     if assumed:
         units = ASSUMED_UNITS.get(key, "m")
     parts, taken, colors = [], set(), {}
-    materials = {}
-    if key == "3mf":              # trimesh reads no 3MF colours: the base materials, by name
-        from cadpipe.io.threemf import base_materials
-
-        materials = base_materials(path)
     for name, tm in pieces:
-        if str(name) in materials and len(materials[str(name)][0]) == len(tm.faces):
-            labels, names, rgb = _material_labels(*materials[str(name)])
-        else:
-            labels, names, rgb = _face_colour_labels(tm, str(name))
+        labels, names, rgb = _face_colour_labels(tm, str(name))
         colors.update(zip(names, rgb))
         mesh = file_mesh(tm.vertices, tm.faces, path, name, face_part=labels, part_names=names,
                          attributes={"source": str(path), "units": units,
@@ -334,15 +406,6 @@ def _trimesh_scene(path, key):
         parts.append(ScenePart(unique_name(str(name), taken), mesh))
     return Scene(name=path.stem, parts=tuple(parts), units=units,
                  colors=MappingProxyType(colors))
-
-
-def _material_labels(labels, bases):
-    """Labels of faces by material (``bases``: (name, colour) each), the names (unique)
-    and colours of those the faces use."""
-    used, labels = np.unique(labels, return_inverse=True)
-    taken = set()
-    names = tuple(unique_name(bases[k][0] or "material", taken) for k in used)
-    return labels.ravel(), names, [bases[k][1] for k in used]
 
 
 def _face_colour_labels(tm, name):

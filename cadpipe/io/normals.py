@@ -10,12 +10,15 @@ most 33 degrees between neighbouring sides) shades round, one of 10 or fewer
 keeps its facets, and caps keep a hard rim.
 
 Vertices where all faces agree (the great majority) keep one normal; only
-vertices on a crease compare their faces pairwise and get extra normals, so the
-cost and the output stay close to one normal per vertex. The work is three
-compiled passes over the faces (numba, as the collision kernels): numpy's
-dozen full-size passes over every corner cost several times the plain write
-of a GLB. The result is cached on the mesh (an immutable value) per crease
-angle, so a scene written as USD and GLB computes it once.
+vertices on a crease compare their faces pairwise, and each further normal
+there is a new row, so the output is one normal per vertex plus one per extra
+(vertex, normal) pair: what glTF stores as split vertices, and what USD's
+indexed normals take as they are. The work is two compiled passes over the
+faces (numba; a third, light one only when there are creases), the first in
+blocks whose corner angles vectorize: numpy's dozen full-size passes over
+every corner cost several times the plain write of a GLB. The result is
+cached on the mesh (an immutable value) per crease angle, so a scene written
+as USD and GLB computes it once.
 """
 
 from typing import NamedTuple
@@ -23,25 +26,37 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from cadpipe._rows import unique_rows
 from cadpipe.errors import InputError
 
 DEFAULT_CREASE_ANGLE = 35.0
 
-_jit = numba.njit(cache=True, nogil=True)
+# error_model="numpy": a division is not checked for zero (the kernels guard their own);
+# fastmath without nnan/ninf: contractions and reassociation let the angle loop vectorize
+_jit = numba.njit(cache=True, nogil=True, error_model="numpy",
+                  fastmath={"contract", "arcp", "nsz", "reassoc", "afn"})
+#: faces per block of :func:`_vertex_normals` (its block arrays stay in L1 cache)
+_BLOCK = 512
+#: odd minimax polynomial of arctan on [0, 1] (in powers of t**2), max error 3.8e-8 rad
+_ATAN = (0.9999993355792427, -0.3332986078552379, 0.19946565651546788, -0.139086295105954,
+         0.09642197156556104, -0.05591232372186997, 0.02186295538583439,
+         -0.004054566441771568)
+_A0, _A1, _A2, _A3, _A4, _A5, _A6, _A7 = _ATAN
 
 
 class Shading(NamedTuple):
-    """Normals of a mesh: one per vertex, plus extra ones at the corners on creases.
+    """Normals of a mesh: one per vertex, plus a row per extra normal at a crease vertex.
 
-    ``normals[:V]`` are the vertices' own normals; the corners ``corners`` (flat
-    indices into ``faces.ravel()``) take ``normals[rows]`` instead.
+    Corners not listed in ``corners`` take their vertex's row ``normals[v]``; the
+    listed ones (flat indices into ``faces.ravel()``) take ``normals[rows]``, a row
+    of vertex ``vertex[rows - V]``. Splitting each extra row off as a copy of its
+    vertex gives a mesh with one normal per vertex (glTF's form).
     """
 
     normals: np.ndarray     #: (V + E, 3) float32 unit normals
     faces: np.ndarray       #: (F, 3) the mesh's faces
-    corners: np.ndarray     #: (K,) int64 corners on a crease
+    corners: np.ndarray     #: (K,) int64 corners that take an extra row
     rows: np.ndarray        #: (K,) int64 their rows in ``normals`` (>= V)
+    vertex: np.ndarray      #: (E,) int64 the vertex of each extra row
 
     @property
     def per_vertex(self):
@@ -80,24 +95,90 @@ def shading_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
 def _shading(mesh, angle):
     vertices = np.ascontiguousarray(mesh.vertices, np.float64)
     faces = np.ascontiguousarray(mesh.faces)
-    vertex_normals = np.zeros((len(vertices), 3))
-    _vertex_normals(vertices, faces, vertex_normals)
+    normals = np.zeros((len(vertices), 3), np.float32)
+    face_normals = np.empty((len(faces), 3), np.float32)
+    _vertex_normals(vertices, faces, normals, face_normals)
     # a vertex is smooth when every face around it is within half the angle of its
     # normal: then any two of those faces are within the full angle of each other
-    on_crease = np.zeros(len(vertices), bool)
-    _on_crease(vertices, faces, vertex_normals, np.cos(np.radians(angle / 2)), on_crease)
-    normals = vertex_normals.astype(np.float32)
+    on_crease = np.zeros(len(vertices), np.bool_)
+    _on_crease(face_normals, faces, normals, np.float32(np.cos(np.radians(angle / 2))),
+               on_crease)
+    del face_normals
+    none = np.empty(0, np.int64)
     if not on_crease.any():
-        none = np.empty(0, np.int64)
-        return Shading(normals, mesh.faces, none, none)
-    corners, summed = _crease_corners(vertices, faces, on_crease,
-                                      np.cos(np.radians(angle)) - 1e-6)
-    # corners of one smoothing group sum the same faces in the same order: equal rows,
-    # shared (with equal normals elsewhere) as one extra normal
-    summed = summed.astype(np.float32) + np.float32(0.0)
-    first, which = unique_rows(summed.view(np.int32).astype(np.int64))
-    return Shading(np.concatenate([normals, summed[first]]), mesh.faces, corners,
-                   len(vertices) + which)
+        return Shading(normals, mesh.faces, none, none, none)
+    normals, corners, rows, vertex = _crease_rows(vertices, faces, normals, on_crease,
+                                                  np.cos(np.radians(angle)) - 1e-6)
+    return Shading(normals, mesh.faces, corners, rows, vertex)
+
+
+@_jit
+def _angle(y, x):
+    """``arctan2(y, x)`` for ``y >= 0`` to float32 accuracy, without branches (so a
+    loop of them vectorizes): the weights need no more, and the library
+    arctangent was most of the normals' cost."""
+    ax = abs(x)
+    t = min(y, ax) / max(max(y, ax), 1e-300)
+    z = t * t
+    a = t * (_A0 + z * (_A1 + z * (_A2 + z * (_A3 + z * (_A4 + z * (_A5 + z * (_A6 + z * _A7)))))))
+    a = np.pi / 2 - a if y > ax else a
+    return np.pi - a if x < 0 else a
+
+
+@_jit
+def _vertex_normals(vertices, faces, normals, face_normals):
+    """Fill ``normals`` (V, 3) float32 zeros with the unit normals of the vertices: the
+    faces' unit normals weighted by their corner angles (zero where unused); and
+    ``face_normals`` (F, 3) float32 with the faces' (zero if degenerate).
+
+    Weighting by corner angle (not face area) makes a vertex normal independent
+    of how the surface around it is cut into triangles: a tube vertex gets the
+    radial normal whichever way its quads were split. A block of faces at a
+    time: gather the corners, then the angles (a vectorized loop), then add.
+    """
+    nx, ny, nz = np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK)
+    dot0, dot1, weight0, weight1 = (np.empty(_BLOCK), np.empty(_BLOCK), np.empty(_BLOCK),
+                                    np.empty(_BLOCK))
+    for start in range(0, len(faces), _BLOCK):
+        count = min(len(faces) - start, _BLOCK)
+        for o in range(count):
+            i, j, k = faces[start + o, 0], faces[start + o, 1], faces[start + o, 2]
+            ax, ay, az = (vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1],
+                          vertices[j, 2] - vertices[i, 2])          # corner 0 -> 1
+            cx, cy, cz = (vertices[i, 0] - vertices[k, 0], vertices[i, 1] - vertices[k, 1],
+                          vertices[i, 2] - vertices[k, 2])          # corner 2 -> 0
+            bx, by, bz = -ax - cx, -ay - cy, -az - cz               # corner 1 -> 2
+            nx[o], ny[o], nz[o] = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+            dot0[o] = -(ax * cx + ay * cy + az * cz)
+            dot1[o] = -(ax * bx + ay * by + az * bz)
+        for o in range(count):
+            # every corner's edge cross product is 2 * area long: the angle at a corner
+            # is atan2(2 * area, dot of its edges); the three sum to pi
+            twice_area = np.sqrt(nx[o] * nx[o] + ny[o] * ny[o] + nz[o] * nz[o])
+            scale = 1.0 / twice_area if twice_area > 0.0 else 0.0   # degenerate: weighs 0
+            nx[o], ny[o], nz[o] = nx[o] * scale, ny[o] * scale, nz[o] * scale
+            weight0[o], weight1[o] = _angle(twice_area, dot0[o]), _angle(twice_area, dot1[o])
+        for o in range(count):
+            w0, w1 = weight0[o], weight1[o]
+            w2 = np.pi - w0 - w1
+            face_normals[start + o, 0] = nx[o]
+            face_normals[start + o, 1] = ny[o]
+            face_normals[start + o, 2] = nz[o]
+            i, j, k = faces[start + o, 0], faces[start + o, 1], faces[start + o, 2]
+            normals[i, 0] += nx[o] * w0
+            normals[i, 1] += ny[o] * w0
+            normals[i, 2] += nz[o] * w0
+            normals[j, 0] += nx[o] * w1
+            normals[j, 1] += ny[o] * w1
+            normals[j, 2] += nz[o] * w1
+            normals[k, 0] += nx[o] * w2
+            normals[k, 1] += ny[o] * w2
+            normals[k, 2] += nz[o] * w2
+    for v in range(len(normals)):
+        length = np.sqrt(normals[v, 0] ** 2 + normals[v, 1] ** 2 + normals[v, 2] ** 2)
+        scale = 1.0 / length if length > 0.0 else 0.0
+        for c in range(3):
+            normals[v, c] *= scale
 
 
 @_jit
@@ -105,10 +186,10 @@ def _face_normal(vertices, faces, f):
     """Unit normal of face ``f`` (zero if degenerate) and twice its area."""
     i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
     ax, ay, az = (vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1],
-                  vertices[j, 2] - vertices[i, 2])            # corner 0 -> 1
-    cx, cy, cz = (vertices[i, 0] - vertices[k, 0], vertices[i, 1] - vertices[k, 1],
-                  vertices[i, 2] - vertices[k, 2])            # corner 2 -> 0
-    nx, ny, nz = -(ay * cz - az * cy), -(az * cx - ax * cz), -(ax * cy - ay * cx)
+                  vertices[j, 2] - vertices[i, 2])
+    bx, by, bz = (vertices[k, 0] - vertices[j, 0], vertices[k, 1] - vertices[j, 1],
+                  vertices[k, 2] - vertices[j, 2])
+    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
     twice_area = np.sqrt(nx * nx + ny * ny + nz * nz)
     if twice_area > 0:
         return nx / twice_area, ny / twice_area, nz / twice_area, twice_area
@@ -116,124 +197,115 @@ def _face_normal(vertices, faces, f):
 
 
 @_jit
-def _face(vertices, faces, f):
-    """Unit normal (zero if degenerate) and the three corner angles of face ``f``:
-    ``(nx, ny, nz, angle0, angle1, angle2)``.
-
-    Weighting by corner angle (not face area) makes a vertex normal independent
-    of how the surface around it is cut into triangles: a tube vertex gets the
-    radial normal whichever way its quads were split. Every corner's edge cross
-    product has the length ``2 * area``, so only the dot products differ.
-    """
-    nx, ny, nz, twice_area = _face_normal(vertices, faces, f)
-    i, j, k = faces[f, 0], faces[f, 1], faces[f, 2]
-    # the angle at a corner: between the edge leaving it and the one arriving, reversed
-    # (the three sum to pi: two arctangents do; a degenerate face weighs nothing)
-    dot0, dot1 = 0.0, 0.0
-    for c in range(3):
-        dot0 += (vertices[j, c] - vertices[i, c]) * (vertices[k, c] - vertices[i, c])
-        dot1 += (vertices[k, c] - vertices[j, c]) * (vertices[i, c] - vertices[j, c])
-    angle0, angle1 = _angle(twice_area, dot0), _angle(twice_area, dot1)
-    return nx, ny, nz, angle0, angle1, np.pi - angle0 - angle1
-
-
-@_jit
-def _angle(y, x):
-    """``arctan2(y, x)`` for ``y >= 0`` to float32 accuracy (Cephes' ``atanf``
-    polynomial after reducing to [0, tan(pi / 8)]): the weights need no more,
-    and the library arctangent was most of the normals' cost."""
-    if y == 0.0 and x == 0.0:
-        return 0.0
-    flip = y > abs(x)                       # beyond 45 degrees: pi / 2 - atan(|x| / y)
-    t = abs(x) / y if flip else y / abs(x)
-    base = 0.0
-    if t > 0.41421356237309503:             # tan(pi / 8): atan(t) = pi / 4 + atan((t-1)/(t+1))
-        t = (t - 1.0) / (t + 1.0)
-        base = np.pi / 4
-    z = t * t
-    a = base + ((((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z
-                 - 3.33329491539e-1) * z * t + t)
-    if flip:
-        a = np.pi / 2 - a
-    return np.pi - a if x < 0 else a
-
-
-@_jit
-def _vertex_normals(vertices, faces, summed):
-    """Fill ``summed`` (V, 3) float64 zeros with the unit angle-weighted normals of the
-    vertices (zero where unused)."""
-    for f in range(len(faces)):
-        nx, ny, nz, a0, a1, a2 = _face(vertices, faces, f)
-        for k in range(3):
-            weight = a0 if k == 0 else a1 if k == 1 else a2
-            v = faces[f, k]
-            summed[v, 0] += nx * weight
-            summed[v, 1] += ny * weight
-            summed[v, 2] += nz * weight
-    for v in range(len(summed)):
-        length = np.sqrt(summed[v, 0] ** 2 + summed[v, 1] ** 2 + summed[v, 2] ** 2)
-        if length > 0:
-            for c in range(3):
-                summed[v, c] /= length
-
-
-@_jit
-def _on_crease(vertices, faces, vertex_normals, cos_half, crease):
+def _on_crease(face_normals, faces, normals, cos_half, crease):
     """Set ``crease`` (V,) where some face at the vertex is more than half the angle off
-    its normal."""
+    its normal (degenerate faces, of zero normal, count as off)."""
     for f in range(len(faces)):
-        nx, ny, nz, _ = _face_normal(vertices, faces, f)
-        for k in range(3):
-            v = faces[f, k]
-            if (nx * vertex_normals[v, 0] + ny * vertex_normals[v, 1]
-                    + nz * vertex_normals[v, 2]) < cos_half:
+        nx, ny, nz = face_normals[f, 0], face_normals[f, 1], face_normals[f, 2]
+        for v in (faces[f, 0], faces[f, 1], faces[f, 2]):
+            if nx * normals[v, 0] + ny * normals[v, 1] + nz * normals[v, 2] < cos_half:
                 crease[v] = True
 
 
 @_jit
-def _crease_corners(vertices, faces, on_crease, cos_full):
-    """The corners at crease vertices (flat indices into ``faces.ravel()``) and, for
-    each, the unit angle-weighted sum of the normals of the faces at its vertex
-    within the full angle of its own face's (the corners of degenerate faces,
-    whose sum is zero, are left out: they keep the vertex normal)."""
-    n_vertices = len(vertices)
-    start = np.zeros(n_vertices + 1, np.int64)               # corners per crease vertex
-    for f in range(len(faces)):
-        for k in range(3):
-            if on_crease[faces[f, k]]:
-                start[faces[f, k] + 1] += 1
-    for v in range(n_vertices):
-        start[v + 1] += start[v]
-    filled = start[:-1].copy()
-    corner = np.empty(start[-1], np.int64)
-    normal = np.empty((start[-1], 3))
-    weight = np.empty(start[-1])
-    for f in range(len(faces)):
-        for k in range(3):
-            v = faces[f, k]
-            if on_crease[v]:
-                nx, ny, nz, a0, a1, a2 = _face(vertices, faces, f)
-                angle = a0 if k == 0 else a1 if k == 1 else a2
-                i = filled[v]
-                corner[i] = 3 * f + k
-                normal[i, 0], normal[i, 1], normal[i, 2] = nx, ny, nz
-                weight[i] = angle
-                filled[v] += 1
-    summed = np.zeros((len(corner), 3))
-    found = np.zeros(len(corner), np.bool_)
-    for v in range(n_vertices):
-        for i in range(start[v], start[v + 1]):
-            for j in range(start[v], start[v + 1]):
-                if (normal[i, 0] * normal[j, 0] + normal[i, 1] * normal[j, 1]
-                        + normal[i, 2] * normal[j, 2]) >= cos_full:
-                    for c in range(3):
-                        summed[i, c] += normal[j, c] * weight[j]
-            length = np.sqrt(summed[i, 0] ** 2 + summed[i, 1] ** 2 + summed[i, 2] ** 2)
-            if length > 0:
-                found[i] = True
-                for c in range(3):
-                    summed[i, c] /= length
-    return corner[found], summed[found]
+def _corner_angle(vertices, faces, f, k):
+    """The angle of face ``f`` at its corner ``k``."""
+    i, j, m = faces[f, k], faces[f, (k + 1) % 3], faces[f, (k + 2) % 3]
+    ux, uy, uz = (vertices[j, 0] - vertices[i, 0], vertices[j, 1] - vertices[i, 1],
+                  vertices[j, 2] - vertices[i, 2])
+    wx, wy, wz = (vertices[m, 0] - vertices[i, 0], vertices[m, 1] - vertices[i, 1],
+                  vertices[m, 2] - vertices[i, 2])
+    cx, cy, cz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+    return _angle(np.sqrt(cx * cx + cy * cy + cz * cz), ux * wx + uy * wy + uz * wz)
+
+
+@_jit
+def _crease_rows(vertices, faces, normals, on_crease, cos_full):
+    """The normals of the corners at crease vertices: ``(normals, corners, rows,
+    vertex)`` of a :class:`Shading`.
+
+    Each corner there takes the unit angle-weighted sum of the normals of the faces
+    at its vertex within the full angle of its own face's. Per vertex, the first
+    distinct sum takes the vertex's own row and each further one a new row; a
+    corner of a degenerate face (whose sum is zero) keeps the vertex normal, and
+    then every sum takes a new row.
+    """
+    # the corners at crease vertices, grouped by vertex in corner order (counted first:
+    # an array grown inside the loop costs reference counting on every corner)
+    corners = faces.ravel()
+    count = 0
+    for c in range(len(corners)):
+        count += on_crease[corners[c]]
+    keys = np.empty(count, np.int64)
+    count = 0
+    for c in range(len(corners)):
+        if on_crease[corners[c]]:
+            keys[count] = corners[c] * len(corners) + c        # sorts by vertex, then corner
+            count += 1
+    keys.sort()
+    vertex_of = keys // len(corners)
+    corner = keys - vertex_of * len(corners)
+    face_normal = np.empty((count, 3))
+    weight = np.empty(count)
+    for c in range(count):
+        f, k = corner[c] // 3, corner[c] % 3
+        nx, ny, nz, _ = _face_normal(vertices, faces, f)
+        face_normal[c, 0], face_normal[c, 1], face_normal[c, 2] = nx, ny, nz
+        weight[c] = _corner_angle(vertices, faces, f, k)
+    summed = np.zeros((count, 3), np.float32)
+    row = np.full(count, -1, np.int64)
+    extra_of = np.empty(count, np.int64)          # the corner whose sum each extra row is
+    n_vertices, extra = len(vertices), 0
+    start = 0
+    while start < count:
+        stop = start
+        while stop < count and vertex_of[stop] == vertex_of[start]:
+            stop += 1
+        v = vertex_of[start]
+        slot_taken = False            # by a degenerate face's corner or the first sum
+        for c in range(start, stop):
+            sx, sy, sz = 0.0, 0.0, 0.0
+            for d in range(start, stop):
+                if (face_normal[c, 0] * face_normal[d, 0] + face_normal[c, 1] * face_normal[d, 1]
+                        + face_normal[c, 2] * face_normal[d, 2]) >= cos_full:
+                    sx += face_normal[d, 0] * weight[d]
+                    sy += face_normal[d, 1] * weight[d]
+                    sz += face_normal[d, 2] * weight[d]
+            length = np.sqrt(sx * sx + sy * sy + sz * sz)
+            if length > 0.0:
+                summed[c, 0], summed[c, 1], summed[c, 2] = sx / length, sy / length, sz / length
+            else:
+                row[c] = v
+                slot_taken = True
+        for c in range(start, stop):
+            if row[c] != -1:
+                continue
+            for d in range(start, c):    # an equal normal met before (never a zero one)
+                if summed[d, 0] == summed[c, 0] and summed[d, 1] == summed[c, 1] and \
+                        summed[d, 2] == summed[c, 2]:
+                    row[c] = row[d]
+                    break
+            if row[c] != -1:
+                continue
+            if not slot_taken:                           # the first takes the vertex's row
+                row[c] = v
+                slot_taken = True
+                normals[v, 0], normals[v, 1], normals[v, 2] = \
+                    summed[c, 0], summed[c, 1], summed[c, 2]
+            elif summed[c, 0] == normals[v, 0] and summed[c, 1] == normals[v, 1] and \
+                    summed[c, 2] == normals[v, 2]:       # the vertex normal a degenerate
+                row[c] = v                               # face's corner keeps
+            else:
+                row[c] = n_vertices + extra
+                extra_of[extra] = c
+                extra += 1
+        start = stop
+    out = np.empty((n_vertices + extra, 3), np.float32)
+    out[:n_vertices] = normals
+    for e in range(extra):
+        out[n_vertices + e] = summed[extra_of[e]]
+    moved = row >= n_vertices
+    return out, corner[moved], row[moved], vertex_of[extra_of[:extra]]
 
 
 def split_for_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
@@ -241,7 +313,8 @@ def split_for_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
 
     A vertex on a crease is split into one copy per distinct corner normal, so
     hard edges stay hard; faces keep their order (``face_part`` still applies).
-    Returned in the types glTF stores, so a writer copies nothing more.
+    Returned in the types glTF stores: the normals are the shading's own rows,
+    the faces its corner rows.
 
     Returns
     -------
@@ -250,57 +323,10 @@ def split_for_normals(mesh, crease_angle=DEFAULT_CREASE_ANGLE):
     normals : (V', 3) float32 array
     """
     shading = shading_normals(mesh, crease_angle)
-    if shading.per_vertex:
-        return (mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32),
-                shading.normals)
-    # only corners with an extra (crease) normal need a new vertex: one per distinct
-    # (vertex, normal) pair among them; every other corner keeps its vertex
-    vertex = mesh.faces.ravel()[shading.corners]
-    first, pair = unique_rows(np.column_stack([vertex, shading.rows, np.zeros_like(vertex)]))
-    return _split(mesh.vertices, mesh.faces, shading.normals, shading.corners, pair,
-                  vertex[first], shading.rows[first])
-
-
-def _split(vertices, faces, normals, corners, pair, pair_vertex, pair_normal):
-    """The split mesh, written straight into glTF's types. ``corners`` move to their
-    ``pair`` (vertex ``pair_vertex`` with normal ``pair_normal``): the first pair of a
-    vertex takes the vertex's own slot, unless a corner there keeps the vertex
-    normal (a degenerate face's); every other pair is a new vertex at the end.
-    (Outputs are allocated by numpy, which asks the kernel for huge pages: fresh
-    memory the kernels allocate costs more in page faults than their work.)"""
-    out = np.empty((len(faces), 3), np.uint32)
-    target = np.empty(len(pair_vertex), np.int64)
-    count = _split_faces(faces, len(vertices), corners, pair, pair_vertex, out, target,
-                         np.zeros(3 * len(faces), bool), np.zeros(len(vertices), bool))
-    points, shading = np.empty((count, 3), np.float32), np.empty((count, 3), np.float32)
-    points[:len(vertices)] = vertices
-    shading[:len(vertices)] = normals[:len(vertices)]
-    points[target] = vertices[pair_vertex]
-    shading[target] = normals[pair_normal]
-    return points, out, shading
-
-
-@_jit
-def _split_faces(faces, n_old, corners, pair, pair_vertex, out, target, moved, keeps):
-    """Fill ``out`` (F, 3) with ``faces`` and each pair's ``target`` vertex; the count
-    of vertices. ``moved`` (3F,) and ``keeps`` (V,) are zeroed scratch."""
-    for i in range(len(corners)):
-        moved[corners[i]] = True
-    for f in range(len(faces)):
-        for k in range(3):
-            v = faces[f, k]
-            out[f, k] = v
-            if not moved[3 * f + k]:
-                keeps[v] = True                      # a corner there keeps the vertex
-    count = n_old
-    for p in range(len(pair_vertex)):                # pairs come in first-seen order
-        v = pair_vertex[p]
-        if keeps[v]:
-            target[p] = count
-            count += 1
-        else:
-            target[p] = v
-            keeps[v] = True                          # later pairs of v are copies
-    for i in range(len(corners)):
-        out[corners[i] // 3, corners[i] % 3] = target[pair[i]]
-    return count
+    n_vertices = len(mesh.vertices)
+    vertices = np.empty((len(shading.normals), 3), np.float32)
+    vertices[:n_vertices] = mesh.vertices
+    vertices[n_vertices:] = mesh.vertices[shading.vertex]
+    index = shading.corner_index
+    faces = (index.view(np.uint32) if index.dtype == np.int32 else index.astype(np.uint32))
+    return vertices, faces.reshape(-1, 3), shading.normals

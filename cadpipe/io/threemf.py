@@ -24,17 +24,23 @@ them into.
 
 import re
 import zipfile
-from collections import Counter
+import zlib
 from concurrent.futures import ThreadPoolExecutor
-from xml.sax.saxutils import quoteattr, unescape
+from pathlib import Path as FilePath
+from types import MappingProxyType
+from typing import NamedTuple
+from xml.etree import ElementTree
+from xml.sax.saxutils import quoteattr
 
+import numba
 import numpy as np
 
-from cadpipe.errors import InputError
+from cadpipe import limits
+from cadpipe.errors import InputError, MeshError, shown
 from cadpipe.geometry.mesh import merge_tables
-from cadpipe.io.scene import as_scene, parse_color
-from cadpipe.io.files import atomic_path, unique_name
-from cadpipe.io.flatten import DEFAULT_COLOR, labelled
+from cadpipe.io.scene import as_scene
+from cadpipe.io.files import atomic_path, file_mesh, placed_points, unique_name
+from cadpipe.io.flatten import labelled
 from cadpipe.io.text import ascii_rows, float32_columns
 
 #: 3MF's names for cadpipe's scene units
@@ -150,92 +156,660 @@ def _escape(text):
     return quoteattr(str(text))[1:-1]
 
 
-# -- reading the colours back -------------------------------------------------------
-_OBJECT = re.compile(rb"<(?:\w+:)?object\b([^>]*)>")
-_OBJECT_END = re.compile(rb"</(?:\w+:)?object>")
-_BASE_GROUP = re.compile(rb"<(?:\w+:)?basematerials\b([^>]*)>(.*?)</(?:\w+:)?basematerials>",
-                         re.S)
-_BASE = re.compile(rb"<(?:\w+:)?base\b([^>]*)>")
-_ATTRIBUTE = re.compile(rb'([\w:]+)\s*=\s*"([^"]*)"')
-_P1 = re.compile(rb' p1="(\d{1,9})"')
-_PID = re.compile(rb' pid="(\d+)"')
+# -- reading ---------------------------------------------------------------------
+_MATERIAL = "http://schemas.microsoft.com/3dmanufacturing/material/2015/02"
+_PRODUCTION = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
+_MODEL_TYPE = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"
+#: 3MF's units (core specification 1.3, 3.4.1) in cadpipe's: (unit, factor)
+_UNITS_READ = {"micron": ("mm", 0.001), "millimeter": ("mm", 1.0), "centimeter": ("cm", 1.0),
+               "inch": ("in", 1.0), "foot": ("ft", 1.0), "meter": ("m", 1.0)}
+#: the attribute the fast path puts on each mesh table it parsed (its block's number)
+_BLOCK = "{urn:cadpipe:block}n"
+_TABLE = re.compile(rb"<(vertices|triangles)(?=[\s/>])")
+#: a table's row element
+_ROW = {b"vertices": b"vertex", b"triangles": b"triangle"}
+_TRIANGLE_ATTRIBUTES = ("v1", "v2", "v3", "pid", "p1")
 
 
-def base_materials(path):
-    """The base material of each triangle of each object of a 3MF file.
+def read_3mf(path):
+    """The objects of a 3MF package as a Z-up :class:`~cadpipe.io.scene.Scene`.
 
-    Returns
-    -------
-    materials : dict
-        ``{object name: (labels, bases)}``: ``labels`` (T,) int, the index into
-        ``bases`` of each triangle in file order (its ``p1``, else the object's
-        ``pindex``); ``bases`` a list of ``(name, (r, g, b))`` with channels in
-        [0, 1]. Only objects named once, whose triangles all take materials of the
-        object's own ``<basematerials>`` group (what cadpipe and most slicers write).
+    One part per mesh object placed by the build (through components, also those
+    in other model files of the production extension), in world coordinates and
+    the model's unit (a micron model in millimetres), named after the build
+    item's ``partnumber`` or the object. Faces are labelled by their
+    base material (its name) or colour group (the part's name and the colour),
+    coloured by its ``displaycolor``. Raises :class:`~cadpipe.errors.MeshError`
+    for what is not a 3MF package, and :class:`~cadpipe.errors.LimitError` for
+    a build past ``max_triangles`` before any of it is placed.
 
-    The model is scanned as bytes (C-level searches, no parse of every element): a
-    resource is declared before it is used, so the material groups come before the
-    first object.
+    The tables of vertices and triangles, nearly all of a file, are read by one
+    compiled scan each (:func:`_scan`); the rest of the XML, a few elements per
+    object, by ElementTree. A model the scan cannot read (comments, CDATA, a
+    prefix on the core namespace) is read by ElementTree alone, more slowly.
     """
-    with zipfile.ZipFile(path) as package:
-        data = package.read(_root_model(package))
-    first = _OBJECT.search(data)
-    groups = {}
-    for attributes, body in _BASE_GROUP.findall(data, 0, first.start() if first else 0):
-        groups[_attributes(attributes).get("id")] = [
-            (b.get("name", ""), _rgb(b.get("displaycolor", "")))
-            for b in map(_attributes, _BASE.findall(body))]
-    found, named = {}, Counter()
-    while first is not None:
-        stop = data.find(b"</object>", first.end())        # the core namespace's, at C speed
-        if stop < 0:
-            end = _OBJECT_END.search(data, first.end())
-            stop = end.start() if end else len(data)
-        own = _attributes(first.group(1))
-        name = own.get("name", own.get("id", ""))
-        named[name] += 1
-        bases = groups.get(own.get("pid"))
-        labels = _object_labels(data[first.end():stop], own, len(bases)) if bases else None
-        if labels is not None:
-            found[name] = (labels, bases)
-        first = _OBJECT.search(data, stop)
-    return {name: value for name, value in found.items() if named[name] == 1}
+    from cadpipe.io.scene import Scene, ScenePart
+
+    try:
+        archive = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, ValueError) as exc:
+        raise MeshError(f"not a 3MF package ({exc})", file=path) from None
+    with archive:
+        models = _Models(archive, path)
+        root = models.get(_root_part(archive, path))
+        placed = _placements(root, models, path)
+    unit, factor = _UNITS_READ.get(root.unit, (None, 1.0))
+    if unit is None:
+        raise MeshError(f"unknown unit {root.unit!r}; 3MF's are {', '.join(_UNITS_READ)}",
+                        file=path)
+    parts, colors, taken = [], {}, set()
+    for name, obj, matrix in placed:
+        vertices, faces, _ = obj.mesh
+        matrix = matrix.copy()
+        matrix[:3] *= factor
+        vertices = placed_points(vertices, matrix)     # inf/NaN: file_mesh names the part
+        if np.linalg.det(matrix[:3, :3]) < 0:
+            faces = faces[:, ::-1]
+        name = unique_name(name, taken)
+        labels, names = _face_labels(obj, name, colors)
+        mesh = file_mesh(vertices, faces, path, name, face_part=labels, part_names=names,
+                         attributes={"source": str(path), "units": unit})
+        parts.append(ScenePart(name, mesh))
+    if not parts:
+        raise MeshError("the build places no triangles", file=path)
+    return Scene(name=FilePath(path).stem, parts=tuple(parts), units=unit,
+                 colors=MappingProxyType(colors))
 
 
-def _object_labels(body, own, bases):
-    """(T,) base of each triangle of the object whose content is ``body``, or None when
-    its triangles do not all take one of the ``bases`` (a count) of its own group."""
-    count = body.count(b"<triangle ") + body.count(b"<triangle\t")
-    if not count or set(_PID.findall(body)) - {own["pid"].encode()}:
-        return None
-    p1 = _P1.findall(body)
-    if len(p1) == count:
-        labels = np.array(p1).astype(np.int64)
-    elif not p1 and own.get("pindex", "0").isdigit():
-        labels = np.full(count, int(own.get("pindex", "0")))
+class _Object(NamedTuple):
+    """An ``<object>``: a mesh ``(vertices, faces, props)`` (props: (T, 2) pid and p1 per
+    triangle, -1 where absent, or None) or components ``[(objectid, 4x4 matrix,
+    model part)]``."""
+
+    name: str
+    pid: int
+    pindex: int
+    mesh: tuple | None
+    components: list
+    colours: dict                   #: its model part's property groups (see _Model)
+
+
+class _Model(NamedTuple):
+    unit: str
+    objects: dict                   #: id -> _Object
+    colours: dict                   #: property group id -> [(name or None, rgb or None)]
+    items: list                     #: [(objectid, 4x4 matrix, partnumber, model part)]
+
+
+def _root_part(archive, path):
+    """The name of the package's root model part (from ``_rels/.rels``)."""
+    try:
+        rels = ElementTree.fromstring(_member(archive, "_rels/.rels", path))
+        for rel in rels:
+            if rel.get("Type") == _MODEL_TYPE and rel.get("Target"):
+                return rel.get("Target").lstrip("/")
+    except (KeyError, ElementTree.ParseError):
+        pass
+    found = [n for n in archive.namelist() if n.lower() == "3d/3dmodel.model"]
+    if not found:
+        raise MeshError("not a 3MF package (no 3D model part)", file=path)
+    return found[0]
+
+
+def _member(archive, name, path):
+    """The bytes of part ``name`` (its size is checked by :func:`cadpipe.limits.check_archive`
+    before the package is opened)."""
+    try:
+        return archive.read(name)
+    except KeyError:
+        raise MeshError(f"the package has no part {name!r}", file=path) from None
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError, zlib.error) as exc:
+        raise MeshError(f"cannot unpack {name!r} ({exc})", file=path) from None
+
+
+class _Models:
+    """The package's model parts, each read once, when first referenced; ``spent``: the
+    triangles and array bytes their tables hold so far (all parts count against the
+    budgets together)."""
+
+    def __init__(self, archive, path):
+        self.archive, self.path, self.read = archive, path, {}
+        self.spent = [0, 0]
+
+    def get(self, part):
+        part = part.lstrip("/")
+        if part not in self.read:
+            data = _member(self.archive, part, self.path)
+            self.read[part] = _parse_model(data, part, self.path, self.spent)
+        return self.read[part]
+
+
+def _parse_model(data, part, path, spent):
+    """A model part's :class:`_Model`."""
+    tables = {}
+    try:
+        skeleton, totals = _tables_taken_out(data, part, path, tables, spent)
+    except _Unscannable:
+        skeleton = None
+    # a comment, CDATA section, DTD or processing instruction between the tables could
+    # hide markup the search for tables took for real: then ElementTree reads everything
+    if skeleton is not None:
+        head = skeleton.removeprefix(b"\xef\xbb\xbf")
+        if head.startswith(b"<?xml"):
+            head = head[head.find(b"?>"):]
+        if not any(mark in head for mark in (b"<!", b"<?", b"]]>")):
+            spent[:] = totals
+            return _read_model(_xml(skeleton, part, path), tables, part, path)
+    if b"<!DOCTYPE" in data or b"<!ENTITY" in data:
+        raise MeshError(f"{part}: declares a DTD, which 3MF does not allow", file=path)
+    spent[0] += data.count(b"<triangle")
+    limits.check("max_triangles", spent[0], f"reading {part}", file=path, at_least=True)
+    return _read_model(_xml(data, part, path), {}, part, path)
+
+
+class _Unscannable(Exception):
+    """A table the compiled scan does not read: the model is read by ElementTree alone."""
+
+
+def _xml(text, part, path):
+    try:
+        root = ElementTree.fromstring(text)
+    except ElementTree.ParseError as exc:
+        raise MeshError(f"{part}: not well-formed XML ({exc})", file=path) from None
+    if _local(root.tag) != "model":
+        raise MeshError(f"{part}: the root element is <{_local(root.tag)}>, not <model>",
+                        file=path)
+    return root
+
+
+def _tables_taken_out(data, part, path, tables, spent):
+    """``data`` with each ``<vertices>`` and ``<triangles>`` table read by the compiled
+    scan into ``tables`` (numbered) and replaced by an empty element marked with its
+    number, and the triangles and bytes of arrays read with those ``spent`` before:
+    what is left is a few elements per object for ElementTree. Each table's rows
+    are counted first (:func:`_extent`) and checked against the budgets
+    (``max_triangles``; ``max_unpacked_bytes`` for its arrays) before it is read.
+    Raises :class:`_Unscannable` for a table holding markup the scan does not read."""
+    text = np.frombuffer(data, np.uint8)
+    pieces, last = [], 0
+    triangles, unpacked = spent
+    marker = b'<%s xmlns:cadpipe_block="urn:cadpipe:block" cadpipe_block:n="%d"/>'
+    while (match := _TABLE.search(data, last)) is not None:
+        name = match.group(1)
+        close = data.find(b">", match.end())
+        if close < 0:
+            raise _Unscannable
+        start = stop = end = close + 1
+        rows = 0
+        if data[close - 1] != ord("/"):                     # not <vertices/>: rows
+            rows, stop = _extent(text, start, np.frombuffer(_ROW[name], np.uint8))
+            end = data.find(b">", stop) + 1
+            if rows < 0 or not data.startswith(b"</" + name, stop) or \
+                    data[stop + 2 + len(name):end - 1].strip():
+                raise _Unscannable
+        if name == b"triangles":
+            triangles += rows
+            limits.check("max_triangles", triangles, f"reading {part}", file=path)
+        unpacked += 24 * rows                          # float64 points, int64 indices
+        limits.check("max_unpacked_bytes", unpacked, f"reading {part}", file=path)
+        tables[len(tables)] = _scanned(text, start, stop, rows, name == b"triangles")
+        pieces += [data[last:match.start()], marker % (name, len(tables) - 1)]
+        last = end
+    pieces.append(data[last:])
+    return b"".join(pieces), [triangles, unpacked]
+
+
+def _local(tag):
+    return tag.rpartition("}")[2]
+
+
+def _read_model(root, tables, part, path):
+    core = root.tag[:-len("model")]
+    unit = root.get("unit", "millimeter")
+    colours, objects, items = {}, {}, []
+    for resources in root.iter(core + "resources"):
+        for resource in resources:
+            kind = _local(resource.tag)
+            if kind == "basematerials":
+                colours[_int(resource, "id", path)] = [
+                    (base.get("name"), _rgb(base.get("displaycolor")))
+                    for base in resource if _local(base.tag) == "base"]
+            elif kind == "colorgroup":
+                colours[_int(resource, "id", path)] = [
+                    (None, _rgb(colour.get("color")))
+                    for colour in resource if _local(colour.tag) == "color"]
+            elif kind == "object":
+                objects[_int(resource, "id", path)] = _read_object(resource, core, tables,
+                                                                   colours, part, path)
+    for build in root.iter(core + "build"):
+        for item in build.iter(core + "item"):
+            items.append((_int(item, "objectid", path), _matrix(item.get("transform"), path),
+                          item.get("partnumber"),
+                          item.get(f"{{{_PRODUCTION}}}path", part)))
+    return _Model(unit, objects, colours, items)
+
+
+def _read_object(element, core, tables, colours, part, path):
+    """An ``<object>`` element's :class:`_Object`."""
+    name = element.get("name") or f"object {element.get('id')}"
+    pid = _int(element, "pid", path, -1)
+    pindex = _int(element, "pindex", path, -1)
+    mesh = element.find(core + "mesh")
+    if mesh is not None:
+        vertices = _table(mesh.find(core + "vertices"), tables, "vertex", name, path)
+        faces, props = _table(mesh.find(core + "triangles"), tables, "triangle", name, path)
+        return _Object(name, pid, pindex, (vertices, faces, props), [], colours)
+    components = [(_int(c, "objectid", path), _matrix(c.get("transform"), path),
+                   c.get(f"{{{_PRODUCTION}}}path", part).lstrip("/"))
+                  for c in element.iter(core + "component")]
+    return _Object(name, pid, pindex, None, components, colours)
+
+
+def _table(element, tables, row, name, path):
+    """A ``<vertices>`` table as (N, 3) float, or a ``<triangles>`` table as (T, 3) int
+    vertex indices and (T, 2) int pid and p1 (-1 where absent; None where none has
+    either): from the fast path's ``tables``, else from its elements."""
+    integer = row == "triangle"
+    if element is not None and element.get(_BLOCK) is not None:
+        return tables[int(element.get(_BLOCK))]
+    names = _TRIANGLE_ATTRIBUTES if integer else ("x", "y", "z")
+    rows = [] if element is None else [c for c in element if _local(c.tag) == row]
+    try:
+        cells = [[r.get(n, "-1" if i >= 3 else None) for i, n in enumerate(names)]
+                 for r in rows]
+        table = np.array(cells, dtype=np.int64 if integer else np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise MeshError(f"object {name!r}: a <{row}> lacks {', '.join(names[:3])} "
+                        "or holds something other than numbers", file=path) from None
+    table = table.reshape(-1, len(names))
+    if not integer:
+        return table
+    return np.ascontiguousarray(table[:, :3]), table[:, 3:] if (table[:, 3:] >= 0).any() \
+        else None
+
+
+def _scanned(text, start, stop, rows, integer):
+    """A table's numbers from ``text[start:stop]`` (``rows`` rows) by :func:`_scan`, as
+    :func:`_table` returns them; raises :class:`_Unscannable` where the scan cannot
+    read it."""
+    names = _TRIANGLE_ATTRIBUTES if integer else ("x", "y", "z")
+    keys = np.zeros((len(names), 8), np.uint8)
+    for i, n in enumerate(names):
+        keys[i, :len(n)] = np.frombuffer(n.encode(), np.uint8)
+    lengths = np.array([len(n) for n in names], np.int64)
+    floats = np.empty((0 if integer else rows, 3))
+    ints = np.empty((rows if integer else 0, 3), np.int64)
+    extra = np.full((rows, len(names) - 3), -1, np.int64)
+    element = np.frombuffer(b"triangle" if integer else b"vertex", np.uint8)
+    slow = np.zeros(3, np.int64)   # numbers the compiled parse cannot round exactly; extra
+    arguments = (text, start, stop, element, keys, lengths, floats, ints, extra, integer)
+    if not _scan(*arguments, np.empty(0, np.uint8), np.empty(0, np.int64), slow):
+        raise _Unscannable
+    if slow[0]:                    # their text, gathered, then parsed by numpy at once
+        spans, where = np.empty(slow[1], np.uint8), np.empty(slow[0], np.int64)
+        _scan(*arguments, spans, where, slow)
+        floats.reshape(-1)[where] = np.array(spans.tobytes().split(), dtype=np.float64)
+    if not integer:
+        return floats
+    return ints, extra if slow[2] else None
+
+
+@numba.njit(cache=True, nogil=True)
+def _extent(text, start, element):
+    """``(rows, stop)``: how many ``<element`` rows the table from ``text[start]`` holds
+    and where the closing tag after them starts; ``(-1, -1)`` for any other markup
+    in it (comments, other elements)."""
+    rows, at, n, width = 0, start, len(text), len(element)
+    while True:
+        while at < n and text[at] != 60:
+            at += 1
+        if at + 2 + width >= n:
+            return -1, -1
+        closing = text[at + 1] == 47
+        first = at + 1 + closing
+        same = True
+        for i in range(width):
+            if text[first + i] != element[i]:
+                same = False
+                break
+        follows = text[first + width]
+        ends = follows == 32 or follows == 10 or follows == 13 or follows == 9 or \
+            follows == 62 or (follows == 47 and not closing)
+        if not (same and ends):
+            return (rows, at) if closing else (-1, -1)
+        rows += not closing
+        at = first
+
+
+#: 10**k for k in 0..22, exact in float64 (Clinger's fast path)
+_POWERS = np.array([10.0 ** k for k in range(23)])
+
+
+@numba.njit(cache=True, nogil=True)
+def _skip_blanks(text, at, stop):
+    while at < stop and (text[at] == 32 or text[at] == 10 or text[at] == 13 or text[at] == 9):
+        at += 1
+    return at
+
+
+@numba.njit(cache=True, nogil=True)
+def _number(text, start, stop, integer):
+    """The number ``text[start:stop]`` (3MF's ST_Number; an integer where ``integer``):
+    ``(value, state)``, state 0 read, 1 exact only by a full parse (more than 18
+    digits, or beyond 2**53 or 10**22: Clinger's fast path rounds once, exactly,
+    within those), 2 not a number. Integers come back in ``value`` as floats only
+    up to 2**53; larger ones are state 2 (no vertex index is that large)."""
+    at, negative = start, False
+    if at < stop and (text[at] == 45 or text[at] == 43):
+        negative = text[at] == 45
+        at += 1
+    mantissa, scale, digits, inexact, seen = 0, 0, 0, False, False
+    point = False
+    while at < stop:
+        c = text[at]
+        if c == 46 and not point and not integer:
+            point = True
+        elif 48 <= c <= 57:
+            seen = True
+            if mantissa == 0 and c == 48:
+                if point:                               # a leading zero
+                    scale -= 1
+            elif digits < 18:
+                mantissa = mantissa * 10 + (c - 48)
+                digits += 1
+                if point:
+                    scale -= 1
+            else:
+                inexact |= c != 48                      # a dropped digit
+                if not point:
+                    scale += 1
+        else:
+            break
+        at += 1
+    if not seen:
+        return 0.0, 2
+    if at < stop and (text[at] == 101 or text[at] == 69) and not integer:
+        at += 1
+        sign = 1
+        if at < stop and (text[at] == 45 or text[at] == 43):
+            sign = -1 if text[at] == 45 else 1
+            at += 1
+        exponent, given = 0, False
+        while at < stop and 48 <= text[at] <= 57 and exponent < 100000:
+            exponent = exponent * 10 + (text[at] - 48)
+            given = True
+            at += 1
+        if not given:
+            return 0.0, 2
+        scale += sign * exponent
+    if at != stop or (integer and negative and mantissa):
+        return 0.0, 2
+    value = float(mantissa)
+    if mantissa == 0:
+        value = 0.0
+    elif inexact or mantissa > 2 ** 53 or scale < -22 or scale > 22:
+        return 0.0, 1 if not integer else 2
+    elif scale < 0:
+        value /= _POWERS[-scale]
     else:
-        return None                       # some triangles with p1, some without
-    return labels if labels.max() < bases else None
+        value *= _POWERS[scale]
+    return -value if negative else value, 0
 
 
-def _root_model(package):
-    """The path of the package's root model part (its relationship's target)."""
-    rels = package.read("_rels/.rels") if "_rels/.rels" in package.namelist() else b""
-    for attributes in re.findall(rb"<Relationship\b([^>]*)>", rels):
-        relation = _attributes(attributes)
-        if relation.get("Type", "").endswith("/3dmodel"):
-            return relation.get("Target", "").lstrip("/")
-    return "3D/3dmodel.model"
+@numba.njit(cache=True, nogil=True)
+def _scan(text, start, stop, element, keys, lengths, floats, ints, extra, integer, spans,
+          where, slow):
+    """Read a table of ``<element a="..." .../>`` rows (``text[start:stop]``, blanks
+    between them): the value of attribute ``keys[k][:lengths[k]]`` goes to column k
+    of ``ints`` or ``floats`` (rows, 3) for the first three (required), of ``extra``
+    (rows, K - 3; ``slow[2]`` set where any is given) for the rest. False for what
+    this scan does not read (comments, entities, other elements, a row too many or
+    few, a malformed number): the caller then uses ElementTree. Numbers that need an
+    exact full parse are counted in ``slow[:2]`` (count, bytes) and, when ``where``
+    has room, their text is gathered into ``spans`` (blank-separated) and their
+    flat positions into ``where``."""
+    rows, width = len(extra), len(keys)
+    at, row, count, used = start, 0, 0, 0
+    gather = len(where) > 0
+    while True:
+        at = _skip_blanks(text, at, stop)
+        if at >= stop:
+            break
+        if text[at] != 60 or row >= rows or at + 1 + len(element) > stop:
+            return False
+        at += 1
+        for i in range(len(element)):
+            if text[at + i] != element[i]:
+                return False
+        at += len(element)
+        found = 0
+        while True:
+            after = at
+            at = _skip_blanks(text, at, stop)
+            if at >= stop:
+                return False
+            c = text[at]
+            if c == 47:                                   # "/>"
+                if at + 1 >= stop or text[at + 1] != 62:
+                    return False
+                at += 2
+                break
+            if c == 62:                                   # ">" ... "</element>"
+                at = _skip_blanks(text, at + 1, stop)
+                if at + 2 + len(element) >= stop or text[at] != 60 or text[at + 1] != 47:
+                    return False
+                at += 2
+                for i in range(len(element)):
+                    if text[at + i] != element[i]:
+                        return False
+                at = _skip_blanks(text, at + len(element), stop)
+                if at >= stop or text[at] != 62:
+                    return False
+                at += 1
+                break
+            if after == at:                               # attributes need blanks between
+                return False
+            name = at
+            while at < stop and text[at] != 61 and text[at] > 32 and text[at] != 62 \
+                    and text[at] != 47:
+                at += 1
+            name_end = at
+            at = _skip_blanks(text, at, stop)
+            if at >= stop or text[at] != 61:
+                return False
+            at = _skip_blanks(text, at + 1, stop)
+            if at >= stop or (text[at] != 34 and text[at] != 39):
+                return False
+            quote = text[at]
+            value = at + 1
+            at = value
+            while at < stop and text[at] != quote:
+                if text[at] == 38 or text[at] == 60:      # an entity or "<": not read here
+                    return False
+                at += 1
+            if at >= stop:
+                return False
+            value_end = at
+            at += 1
+            column = -1
+            for k in range(width):
+                if lengths[k] == name_end - name:
+                    same = True
+                    for i in range(lengths[k]):
+                        if text[name + i] != keys[k, i]:
+                            same = False
+                            break
+                    if same:
+                        column = k
+                        break
+            if column < 0:
+                continue                                  # an attribute not asked for
+            if found & (1 << column):
+                return False
+            found |= 1 << column
+            number, state = _number(text, value, value_end, integer)
+            if state == 2:
+                return False
+            if column >= 3:
+                extra[row, column - 3] = np.int64(number)
+                slow[2] = 1
+            elif integer:
+                ints[row, column] = np.int64(number)
+            elif state == 0:
+                floats[row, column] = number
+            else:
+                if gather:
+                    where[count] = row * width + column
+                    for i in range(value, value_end):
+                        spans[used] = text[i]
+                        used += 1
+                    spans[used] = 32
+                    used += 1
+                else:
+                    used += value_end - value + 1
+                count += 1
+        if found & 7 != 7:
+            return False
+        row += 1
+    slow[0], slow[1] = count, used
+    return row == rows
 
 
-def _attributes(text):
-    return {k.decode(): unescape(v.decode("utf-8", "replace"), {"&quot;": '"'})
-            for k, v in _ATTRIBUTE.findall(text)}
+def _object(models, key, path):
+    part, object_id = key
+    objects = models.get(part).objects
+    if object_id not in objects:
+        raise MeshError(f"{part}: no object {object_id} (referenced by the build or a "
+                        "component)", file=path)
+    return objects[object_id]
+
+
+def _placements(root, models, path):
+    """[(name, object, 4x4 world matrix)] of each mesh object the build places.
+
+    Before any is placed, the triangles and parts the build places are counted
+    (components may repeat an object many times over) and checked against
+    ``max_triangles`` and ``max_parts``, and components are checked to form no
+    cycle.
+    """
+    totals = {}                            # (part, id) -> (triangles, meshes) one places
+    for object_id, _, _, part in root.items:
+        _count(models, (part.lstrip("/"), object_id), totals, path)
+    triangles = sum(totals[(p.lstrip("/"), i)][0] for i, _, _, p in root.items)
+    meshes = sum(totals[(p.lstrip("/"), i)][1] for i, _, _, p in root.items)
+    limits.check("max_triangles", triangles, "the objects this 3MF's build places", file=path)
+    limits.check("max_parts", meshes, "the objects this 3MF's build places", file=path)
+    placed = []
+    for object_id, matrix, partnumber, part in root.items:
+        stack = [((part.lstrip("/"), object_id), matrix)]
+        while stack:
+            key, world = stack.pop()
+            obj = _object(models, key, path)
+            if obj.mesh is not None:
+                if len(obj.mesh[1]):
+                    placed.append((partnumber or obj.name, obj, world))
+                continue
+            stack.extend(((p, c), world @ m) for c, m, p in reversed(obj.components))
+    return placed
+
+
+def _count(models, key, totals, path):
+    """Fill ``totals`` with (triangles, meshes) placed by one instance of object ``key``
+    and of every object below it (depth first, without recursion); a cycle of
+    components is a :class:`MeshError`."""
+    open_, stack = set(), [key]
+    while stack:
+        key = stack[-1]
+        if key in totals:
+            stack.pop()
+            continue
+        obj = _object(models, key, path)
+        if obj.mesh is not None:
+            totals[key] = (len(obj.mesh[1]), int(len(obj.mesh[1]) > 0))
+            stack.pop()
+            continue
+        children = [(p, c) for c, _, p in obj.components]
+        if key in open_:
+            totals[key] = (sum(totals[c][0] for c in children),
+                           sum(totals[c][1] for c in children))
+            open_.discard(key)
+            stack.pop()
+            continue
+        open_.add(key)
+        for child in children:
+            if child in open_:
+                raise MeshError(f"object {key[1]}'s components form a cycle", file=path)
+            if child not in totals:
+                stack.append(child)
+
+
+def _face_labels(obj, name, colors):
+    """(F,) label per face of ``obj`` and the label names, from each triangle's property
+    (``pid``/``p1``, else the object's ``pid``/``pindex``): a base material's name, or
+    ``name`` and the colour for a colour group; ``colors`` (label -> rgb) gains each
+    label's colour. ``(None, ())`` where no face has one."""
+    props = obj.mesh[2]
+    if props is None:
+        keys, labels = np.array([[obj.pid, obj.pindex]]), None
+    else:
+        pid = np.where(props[:, 0] >= 0, props[:, 0], obj.pid)
+        index = np.where(props[:, 1] >= 0, props[:, 1], obj.pindex)
+        # one integer per (pid, p1): a sort of ints, not of rows
+        packed = (pid + 1) << 32 | (index + 1)
+        codes, labels = np.unique(packed, return_inverse=True)
+        keys = np.stack([(codes >> 32) - 1, (codes & 0xFFFFFFFF) - 1], axis=1)
+    names, coloured = [], False
+    for pid, index in keys.tolist():
+        group = obj.colours.get(pid, ())
+        label, rgb = group[index] if 0 <= index < len(group) else (None, None)
+        if rgb is None:
+            label = name
+        else:
+            coloured = True
+            label = label or f"{name}_" + "".join(f"{round(c * 255):02x}" for c in rgb)
+            while colors.setdefault(label, rgb) != rgb:       # one colour per label name
+                label += "_"
+        names.append(label)
+    if not coloured:
+        return None, ()
+    if labels is None:
+        labels = np.zeros(len(obj.mesh[1]), np.int64)
+    distinct = tuple(dict.fromkeys(names))                      # equal names: one label
+    return np.array([distinct.index(n) for n in names])[labels], distinct
+
+
+def _int(element, attribute, path, default=None):
+    value = element.get(attribute)
+    if value is None and default is not None:
+        return default
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        raise MeshError(f"<{_local(element.tag)}> has {attribute}={shown(value)}, not a "
+                        "whole number", file=path) from None
 
 
 def _rgb(text):
-    """3MF's ``#RRGGBB[AA]`` as (r, g, b) in [0, 1]; cadpipe's grey for anything else."""
+    """(r, g, b) in [0, 1] of ``"#RRGGBB"`` or ``"#RRGGBBAA"``; None for anything else."""
+    if not isinstance(text, str) or len(text) not in (7, 9) or text[0] != "#":
+        return None
     try:
-        return parse_color(text.strip()[:7])
-    except InputError:
-        return DEFAULT_COLOR
+        return tuple(int(text[i:i + 2], 16) / 255.0 for i in (1, 3, 5))
+    except ValueError:
+        return None
+
+
+def _matrix(text, path):
+    """The 4x4 column-vector matrix of a 3MF ``transform`` (12 numbers: the rows of a
+    4x3 matrix that multiplies row vectors); the identity when there is none."""
+    matrix = np.eye(4)
+    if text is None:
+        return matrix
+    try:
+        rows = np.array(text.split(), dtype=np.float64).reshape(4, 3)
+    except ValueError:
+        raise MeshError(f"transform={shown(text)} is not 12 numbers", file=path) from None
+    if not np.isfinite(rows).all():
+        raise MeshError(f"transform={shown(text)} is not finite", file=path)
+    matrix[:3, :3], matrix[:3, 3] = rows[:3].T, rows[3]
+    return matrix
