@@ -13,15 +13,22 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[test,bench]'
 	touch $(STAMP)
 
-demo: $(STAMP)
+# numba keys a cached kernel by its own file only: when any source is newer than the
+# cache, drop every cached kernel, so none keeps a stale copy of another module's function
+KERNELS := $(VENV)/.kernels-stamp
+$(KERNELS): $(STAMP) $(shell find cadpipe -name '*.py')
+	find cadpipe -name '*.nbi' -delete -o -name '*.nbc' -delete
+	touch $@
+
+demo: $(STAMP) $(KERNELS)
 	$(VENV)/bin/cadpipe demo -o $(OUT)
 
 # ruff's rule set is in pyproject.toml; slow cases run too, spread over the cores
-test: $(STAMP) chromium consumers
+test: $(STAMP) $(KERNELS) chromium consumers
 	$(VENV)/bin/ruff check cadpipe tests benchmarks examples
 	$(PY) -m pytest -n auto
 
-bench: $(STAMP)
+bench: $(STAMP) $(KERNELS)
 	for f in benchmarks/bench_*.py; do $(PY) $$f || exit 1; done
 
 # headless browser that tests/test_preview.py drives (Debian's package; needs root to install)

@@ -5,6 +5,7 @@ planning) time cadpipe against the same 15-line python-fcl loop of issue 11; it
 lives here once so both measure the same peer.
 """
 
+import resource
 import time
 
 import fcl
@@ -87,3 +88,23 @@ def pipe_scene():
     torus = Mesh.from_trimesh(trimesh.creation.torus(0.5, 0.15, major_sections=48,
                                                      minor_sections=16))
     return a, b, torus
+
+
+def resident():
+    """This process's resident memory now, in bytes (Linux /proc)."""
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * resource.getpagesize()
+
+
+def settled():
+    """Hand freed memory back to the system (cadpipe's recycled blocks, glibc's heap), so
+    the resident memory before a write is what is live, and memory the write takes shows."""
+    import ctypes
+    import gc
+
+    from cadpipe.geometry import buffers
+
+    gc.collect()
+    buffers.release()
+    ctypes.CDLL("libc.so.6").malloc_trim(0)
+    return resident()

@@ -70,9 +70,10 @@ print(json.dumps([time.perf_counter() - wall, time.process_time() - cpu]))
 
 
 def child(tree):
+    # run in ``tree``: ``python -c`` puts the working directory first on sys.path
     env = {**os.environ, "PYTHONPATH": tree}
-    out = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", CHILD], env=env, cwd=tree,
+                         capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 

@@ -13,7 +13,11 @@ CPU seconds, ratios cadpipe / peer; the load average is printed with them):
   the same pipe as STL, OBJ, PLY, 3MF and GLB;
 - GLB and ``.usdc`` with normals against the same write without them, against
   trimesh's GLB export and a plain usd-core stage (points and indices only), and
-  both formats written from one mesh (the shading is computed once and shared).
+  both formats written from one mesh (the shading is computed once and shared):
+  for the pipe as ``Pipe.mesh()`` makes it (its inner rings' normals from their ring
+  neighbours) and for its arrays alone (a mesh read from a file: the general passes);
+  and usd-core alone holding the normals as cadpipe writes them (indexed faceVarying)
+  against vertex normals on a mesh whose crease vertices are split, as glTF's are.
 
 Then, in a fresh process per format, the peak resident memory of writing a large
 pipe (``--points`` points, 16 sides) above the memory before the write (freed memory
@@ -28,7 +32,6 @@ Run: OPENBLAS_NUM_THREADS=1 .venv/bin/python benchmarks/bench_io.py --speed-only
 
 import argparse
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -44,6 +47,8 @@ from cadpipe.io.files import export, load_mesh
 from cadpipe.io.normals import shading_normals
 from cadpipe.solids.intersect import self_intersections
 from cadpipe.solids.validity import check_mesh
+
+from _common import resident, settled
 
 FORMATS = ("stl", "3mf", "obj", "ply", "glb", "usda", "usdc", "usdz")
 #: the memory runs' peer: usd-core alone holding the same points, counts and indices
@@ -98,16 +103,33 @@ def trimesh_load(path):
     return trimesh.load(path, force="mesh")
 
 
-def pxr_plain(mesh, path):
-    """The least a usd-core user writes: one Mesh prim, points, counts and indices."""
-    from pxr import Usd, UsdGeom, Vt
+def pxr_plain(mesh, path, normals=None):
+    """The least a usd-core user writes: one Mesh prim, points, counts and indices;
+    ``normals``: also the mesh's shading normals, ``"indexed"`` (faceVarying, indexed
+    per corner: cadpipe's layout) or ``"split"`` (per vertex, the crease vertices
+    split into copies as in glTF, which changes the points and indices)."""
+    from pxr import Sdf, Usd, UsdGeom, Vt
 
+    from cadpipe.io.normals import split_for_normals
+
+    points, faces = mesh.vertices.astype(np.float32), mesh.faces.astype(np.int32).ravel()
+    if normals == "split":
+        points, faces, shading = split_for_normals(mesh)
     stage = Usd.Stage.CreateInMemory()
     geom = UsdGeom.Mesh.Define(stage, "/pipe")
-    geom.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(mesh.vertices.astype(np.float32)))
+    geom.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(points))
     geom.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3,
                                                                   np.int32)))
-    geom.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(mesh.faces.astype(np.int32).ravel()))
+    geom.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(faces.view(np.int32).ravel()))
+    if normals == "split":
+        geom.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(shading))
+        geom.SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    elif normals == "indexed":
+        shading = shading_normals(mesh)
+        primvar = UsdGeom.PrimvarsAPI(geom).CreatePrimvar(
+            "normals", Sdf.ValueTypeNames.Normal3fArray, UsdGeom.Tokens.faceVarying)
+        primvar.SetIndices(Vt.IntArray.FromNumpy(shading.corner_index))
+        primvar.Set(Vt.Vec3fArray.FromNumpy(shading.normals))
     stage.GetRootLayer().Export(str(path))
 
 
@@ -144,7 +166,13 @@ def same_findings(folder):
 
 
 def fresh(mesh):
-    """A new mesh object of the same arrays: nothing cached from an earlier write."""
+    """A new mesh object of the same arrays and ring runs (as ``Pipe.mesh()`` gives
+    them): nothing cached from an earlier write."""
+    return cadpipe.Mesh.trusted(mesh.vertices, mesh.faces, ring_runs=mesh.ring_runs)
+
+
+def bare(mesh):
+    """A new mesh object of the same arrays alone, as a mesh read from a file is."""
     return cadpipe.Mesh.trusted(mesh.vertices, mesh.faces)
 
 
@@ -169,28 +197,40 @@ def speed(runs, points):
         tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
         t = interleaved(runs, normals=lambda: export(fresh(mesh), out / "a.glb"),
                         plain=lambda: export(fresh(mesh), out / "b.glb", normals=False),
-                        trimesh=lambda: tm.export(out / "c.glb"))
+                        trimesh=lambda: tm.export(out / "c.glb"),
+                        general=lambda: export(bare(mesh), out / "e.glb"))
         rows.append(("write glb with normals", t["normals"], "without", t["plain"]))
         rows.append(("write glb with normals", t["normals"], "trimesh (none)", t["trimesh"]))
+        rows.append(("  arrays alone (general)", t["general"], "without", t["plain"]))
         t = interleaved(runs, normals=lambda: export(fresh(mesh), out / "a.usdc"),
                         plain=lambda: export(fresh(mesh), out / "b.usdc", normals=False),
-                        pxr=lambda: pxr_plain(mesh, out / "c.usdc"))
+                        pxr=lambda: pxr_plain(mesh, out / "c.usdc"),
+                        general=lambda: export(bare(mesh), out / "e.usdc"))
         rows.append(("write usdc with normals", t["normals"], "without", t["plain"]))
         rows.append(("write usdc with normals", t["normals"], "plain pxr", t["pxr"]))
+        rows.append(("  arrays alone (general)", t["general"], "without", t["plain"]))
+        t = interleaved(runs, indexed=lambda: pxr_plain(fresh(mesh), out / "f.usdc", "indexed"),
+                        split=lambda: pxr_plain(fresh(mesh), out / "g.usdc", "split"),
+                        plain=lambda: pxr_plain(mesh, out / "h.usdc"))
+        rows.append(("pxr, normals indexed", t["indexed"], "plain pxr", t["plain"]))
+        rows.append(("pxr, normals split", t["split"], "plain pxr", t["plain"]))
 
-        def both(normals):
-            shared = fresh(mesh)
+        def both(normals, made=fresh):
+            shared = made(mesh)
             export(shared, out / "d.usdc", normals=normals)
             export(shared, out / "d.glb", normals=normals)
 
-        t = interleaved(runs, normals=lambda: both(True), plain=lambda: both(False))
+        t = interleaved(runs, normals=lambda: both(True), plain=lambda: both(False),
+                        general=lambda: both(True, bare))
         rows.append(("usdc + glb, one mesh", t["normals"], "without normals", t["plain"]))
+        rows.append(("  arrays alone (general)", t["general"], "without normals", t["plain"]))
         colours = banded(mesh)
         t = interleaved(runs, cadpipe=lambda: cadpipe_split(colours),
                         numpy=lambda: numpy_split(colours))
         rows.append(("PLY 3-colour vertex split", t["cadpipe"], "np.unique", t["numpy"]))
-        t = interleaved(runs, normals=lambda: shading_normals(fresh(mesh)))
-        rows.append(("shading normals alone", t["normals"], "-", (np.nan, np.nan)))
+        t = interleaved(runs, normals=lambda: shading_normals(fresh(mesh)),
+                        general=lambda: shading_normals(bare(mesh)))
+        rows.append(("shading normals alone", t["normals"], "arrays alone", t["general"]))
         findings = same_findings(folder)
     print(f"{'what':26s} {'cadpipe wall':>12s} {'CPU':>7s}  {'peer':16s} {'wall':>7s} "
           f"{'CPU':>7s}  {'ratio wall':>10s} {'CPU':>6s}")
@@ -201,26 +241,6 @@ def speed(runs, points):
     print(f"crossing pipes: faces in crossing pairs, cadpipe {ours}, pymeshlab {theirs}, "
           f"same faces: {same}")
     print(f"load average after: {os.getloadavg()[0]:.1f}")
-
-
-def resident():
-    """This process's resident memory now, in bytes (Linux /proc)."""
-    with open("/proc/self/statm") as fh:
-        return int(fh.read().split()[1]) * resource.getpagesize()
-
-
-def settled():
-    """Hand freed memory back to the system (cadpipe's recycled blocks, glibc's heap), so
-    the resident memory before a write is what is live, and memory the write takes shows."""
-    import ctypes
-    import gc
-
-    from cadpipe.geometry import buffers
-
-    gc.collect()
-    buffers.release()
-    ctypes.CDLL("libc.so.6").malloc_trim(0)
-    return resident()
 
 
 def peak_of_one_write(suffix, points):

@@ -38,6 +38,12 @@ class Limits:
         a ``segments = 4096`` sphere has 8.4 M).
     max_samples : int
         Points sampled along one path (a fitted spline's ``step``/``tolerance``).
+    max_swept_segments : int
+        Path segments of one pipe merged into its swept solid where it comes back
+        within its own reach, and pairs of its segments within reach of each other
+        that the search for them tests (each pair costs about 25 us and the memory
+        of two convex units; a coil whose turns are closer than its diameter has a
+        hundred pairs per segment).
     max_parts : int
         Parts in one spec.
     max_spec_bytes : int
@@ -54,6 +60,7 @@ class Limits:
 
     max_triangles: int = 5_000_000
     max_samples: int = 1_000_000
+    max_swept_segments: int = 200_000
     max_parts: int = 10_000
     max_spec_bytes: int = 64 << 20
     max_depth: int = 64
@@ -66,6 +73,7 @@ _CURRENT = contextvars.ContextVar("cadpipe_limits", default=Limits())  # noqa: B
 
 #: what each budget counts, as the messages say it
 _UNITS = {"max_triangles": "triangles", "max_samples": "path samples", "max_parts": "parts",
+          "max_swept_segments": "segments or segment pairs",
           "max_spec_bytes": "bytes",
           "max_depth": "levels of nesting", "max_number_chars": "digits",
           "max_expansion": "times expansion", "max_unpacked_bytes": "bytes unpacked"}
@@ -81,6 +89,9 @@ READ_LIMITS = ("max_spec_bytes", "max_depth", "max_number_chars")
 #: what each budget bounds, for the CLI's help and the docs
 _HELP = {"max_triangles": "refuse work that would make more triangles than N",
          "max_samples": "refuse a path sampled at more than N points",
+         "max_swept_segments": "refuse a pipe whose swept solid merges more than N path "
+                               "segments, or whose search for them tests more than N "
+                               "pairs (where it comes back within its own reach)",
          "max_parts": "refuse a spec of more than N parts",
          "max_spec_bytes": "refuse a spec file larger than N bytes",
          "max_depth": "refuse a spec nesting tables and lists deeper than N",

@@ -30,7 +30,7 @@ driven.
 
 import numpy as np
 
-from cadpipe.collision.motion import TOLERANCE, check_motion, start_contacts
+from cadpipe.collision.motion import check_motion, motion_settings, start_contacts
 from cadpipe.errors import CadpipeError, InputError
 
 PLANNERS = ("RRTConnect", "RRT", "RRTstar", "PRM", "KPIECE1", "BITstar")
@@ -90,7 +90,7 @@ def motion_validator(world, group, space_information, counter=None, tolerance=No
     robot, _ = world.robot(group)
     count = len(robot.actuated)
     counter = Counter() if counter is None else counter
-    tolerance = TOLERANCE if tolerance is None else tolerance
+    tolerance, margin = motion_settings(tolerance, margin)
 
     class MotionValidator(base.MotionValidator):
         def checkMotion(self, s1, s2, *rest):          # noqa: N802 (OMPL's name)
@@ -100,17 +100,6 @@ def motion_validator(world, group, space_information, counter=None, tolerance=No
             return check_motion(world, group, q, tolerance, margin).free
 
     return MotionValidator(space_information)
-
-
-def _margin(margin):
-    """``margin`` as a float >= 0, or :class:`InputError` (before OMPL calls back)."""
-    try:
-        margin = float(margin)
-    except (TypeError, ValueError):
-        margin = float("nan")
-    if not margin >= 0 or not np.isfinite(margin):
-        raise InputError(f"margin must be a number >= 0, got {margin!r}", key="margin")
-    return margin
 
 
 def joint_space(robot):
@@ -139,7 +128,7 @@ def setup(world, group, counter=None, planner="RRTConnect", step=None, margin=0.
     if planner not in PLANNERS:
         raise InputError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}",
                          key="planner")
-    margin = _margin(margin)
+    _, margin = motion_settings(margin=margin)
     robot, _ = world.robot(group)
     space, bounds = joint_space(robot)
     simple = geometric.SimpleSetup(space)
@@ -204,7 +193,7 @@ def plan(world, group, start, goal, seconds=5.0, planner="RRTConnect", simplify=
     PlanningError
         No exact solution within ``seconds``.
     """
-    margin = _margin(margin)
+    _, margin = motion_settings(margin=margin)
     robot, _ = world.robot(group)
     robot.joint_array(np.stack([np.asarray(start, np.float64), np.asarray(goal, np.float64)]))
     for name, q in (("start", start), ("goal", goal)):

@@ -5,7 +5,9 @@ rtree over the faces' boxes, then every edge of one triangle against the interio
 of the other, vectorized over the candidate pairs); :func:`solid_problems` adds
 manifold3d's status, trimesh's watertightness and round trips through STL and 3MF
 written by trimesh (welded at float32 as the files store it, then ``cadpipe check``'s
-report). Faces that share a vertex are neighbours in a valid mesh and
+report). :func:`winding_numbers` is the brute-force solid-angle sum over every
+triangle, in numpy, that ``cadpipe.geometry.winding``'s tree must reproduce. Faces
+that share a vertex are neighbours in a valid mesh and
 are not tested; touching within 1e-9 of the mesh size is not counted (coplanar
 contact is a matter of rounding, not a wrong result).
 """
@@ -19,6 +21,25 @@ import trimesh
 
 from cadpipe import Mesh
 from cadpipe.solids.validity import check_mesh
+
+
+def winding_numbers(triangles, points, chunk=2_000_000):
+    """Generalized winding number of the triangles (F, 3, 3) at each point (P, 3): the
+    signed solid angles (Van Oosterom and Strackee) summed over 4 pi, every triangle
+    for every point, in chunks of about ``chunk`` pairs."""
+    out = np.empty(len(points))
+    step = max(1, chunk // max(len(triangles), 1))
+    for start in range(0, len(points), step):
+        r = triangles[None, :, :, :] - points[start:start + step, None, None, :]
+        n = np.linalg.norm(r, axis=3)
+        a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
+        det = np.einsum("pfi,pfi->pf", a, np.cross(b, c))
+        dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
+                + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
+                + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
+                + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
+        out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
+    return out
 
 
 def _pierces(p, q, tri, tol):

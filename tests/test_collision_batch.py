@@ -264,11 +264,16 @@ def test_triangle_trees_hold_every_triangle_and_lose_no_minimum():
             if len(points):
                 assert np.all(points >= found.boxes[node, :3]) and \
                     np.all(points <= found.boxes[node, 3:6])
+            if len(points) and node < leaves - 1:
+                # and its oriented box (centre, axes as rows, half extents) holds them too
+                centre, axes, half = (found.frames[node, :3], found.frames[node, 3:12]
+                                      .reshape(3, 3), found.frames[node, 12:])
+                assert np.all(np.abs((points - centre) @ axes.T) <= half)
         poses = random_poses(rng, 40, 0.6)
         gap, unit = np.empty(len(poses)), np.empty(len(poses), np.int64)
         near, far = np.empty((len(poses), 3)), np.empty((len(poses), 3))
-        mesh_walk(found.boxes, found.triangles, found.depth, tree.table, tree.index,
-                  tree.points, tree.depth, poses, False, gap, unit, near, far)
+        mesh_walk(found.boxes, found.frames, found.triangles, found.depth, tree.table,
+                  tree.index, tree.points, tree.depth, poses, False, gap, unit, near, far)
         for p, m in enumerate(poses):
             moved = chain.moved(m)
             expected = min(segment_triangle(moved.starts[u], moved.ends[u], t, np.empty(3),
@@ -278,6 +283,61 @@ def test_triangle_trees_hold_every_triangle_and_lose_no_minimum():
                 assert gap[p] == pytest.approx(expected, abs=1e-12)
             else:
                 assert gap[p] <= 1e-12
+
+
+def test_mesh_walk_drops_no_touching_pair_at_grazing_poses():
+    """The pipe-mesh walk drops node pairs by boxes, oriented boxes and a
+    triangle's plane; none of it may lose a contact. At random poses, and at
+    poses moved so that their closest unit and triangle are 1e-9 apart or 1e-9
+    into each other, its yes/no answer and its gap are those of every unit
+    against every triangle, and a pose moved into contact collides."""
+    from cadpipe.collision.chain_mesh import TriangleTree, segment_triangle, walk as mesh_walk
+
+    rng = np.random.default_rng(11)
+    chain = Chain.along(walk(rng, 14, 0.1), rng.uniform(0.02, 0.06, 14))
+    tree = chain.tree
+    radius = np.maximum(chain.start_radii, chain.end_radii)     # the walk's capsules
+
+    def every_pair(corners, pose):
+        moved = chain.moved(pose)
+        best, near, far = np.inf, np.empty(3), np.empty(3)
+        for u in range(len(moved.edges)):
+            for t in corners:
+                a, b = np.empty(3), np.empty(3)
+                d = segment_triangle(moved.starts[u], moved.ends[u], t, a, b) - radius[u]
+                if d < best:
+                    best, near, far = d, a, b
+        return best, near, far
+
+    grazing = 0
+    for vertices, faces in meshes(rng):
+        found = TriangleTree(vertices, faces)
+        corners = np.asarray(vertices, float)[faces].reshape(-1, 9)
+        poses, touching = list(random_poses(rng, 12, 0.6)), []
+        for m in list(poses):
+            gap, near, far = every_pair(corners, m)
+            if gap > 0:
+                towards = (far - near) / np.linalg.norm(far - near)
+                for left in (1e-9, -1e-9):          # that pair's gap becomes ``left``
+                    moved = m.copy()
+                    moved[:3, 3] += (gap - left) * towards
+                    poses.append(moved)
+                    touching.append(len(poses) - 1) if left < 0 else None
+        poses = np.array(poses)
+        expected = np.array([every_pair(corners, m)[0] for m in poses])
+        count = len(poses)
+        for yes_no in (True, False):
+            gap, unit = np.empty(count), np.empty(count, np.int64)
+            near, far = np.empty((count, 3)), np.empty((count, 3))
+            mesh_walk(found.boxes, found.frames, found.triangles, found.depth, tree.table,
+                      tree.index, tree.points, tree.depth, poses, yes_no, gap, unit, near, far)
+            np.testing.assert_array_equal(gap <= 0, expected <= 0)
+            assert np.all(gap[touching] <= 0)
+            if not yes_no:
+                apart = expected > 0
+                np.testing.assert_allclose(gap[apart], expected[apart], rtol=0, atol=1e-12)
+        grazing += np.sum(np.abs(expected) < 2e-9)
+    assert grazing >= 40
 
 
 @pytest.mark.parametrize("seed", [1, 2])

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from cadpipe import CollisionWorld, Path, Pipe
 from cadpipe.collision.capsules import Chain, round_cone_distance, unit_pair_gap
-from cadpipe.collision.narrow import winding_numbers
+from cadpipe.geometry.mesh import winding_numbers
 
 RADIUS = 0.2
 SIDES = 32

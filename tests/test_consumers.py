@@ -32,6 +32,8 @@ SLICER = ["--bed-shape", "0x0,2000x0,2000x2000,0x2000", "--max-print-height", "1
           "--nozzle-diameter", "1", "--layer-height", "0.7", "--first-layer-height", "0.7",
           "--fill-density", "0", "--perimeters", "1", "--skirts", "0",
           "--top-solid-layers", "0", "--bottom-solid-layers", "1"]
+#: a line PrusaSlicer's Arachne perimeter generator logs at random, whatever the mesh
+ARACHNE_NOTE = "reversing even wall line causes it to be printed ccw instead of cw"
 #: every format an example is built into: the printing ones laid out for the bed
 PRINTING, SCENES = ("stl", "3mf"), ("glb", "usdz", "usda", "obj", "ply")
 
@@ -66,6 +68,9 @@ def slice_file(path, tmp_path):
                          capture_output=True, text=True, timeout=300)
     log = (run.stdout + run.stderr).replace(str(out), "OUT").replace(str(path), "IN").lower()
     assert run.returncode == 0 and out.is_file(), log[-2000:]
+    # Arachne's wall ordering logs this at error level now and then on the same file (1 run
+    # in 8 of spliced_duct): the slicer's own choice of direction, not a problem of the mesh
+    log = "\n".join(line for line in log.splitlines() if ARACHNE_NOTE not in line)
     for warning in ("empty", "manifold", "repaired", "no extrusions", "error"):
         assert warning not in log, log[-2000:]
     return out.read_text().count(";LAYER_CHANGE")

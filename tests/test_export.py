@@ -260,9 +260,10 @@ def test_shading_normals_are_unit_and_face_outward(sides, angle):
 def shading_test_mesh(kind, seed):
     """A mesh with smooth stretches, creases and (``"degenerate"``) zero-area faces."""
     rng = np.random.default_rng(seed)
-    if kind == "pipe":
+    if kind == "pipe":             # its arrays alone: the general rule (rings: below)
         points = np.cumsum(rng.normal(size=(4, 3)), axis=0)
-        return cadpipe.Pipe(points, 0.1, sides=int(rng.integers(3, 30))).mesh()
+        mesh = cadpipe.Pipe(points, 0.1, sides=int(rng.integers(3, 30))).mesh()
+        return cadpipe.Mesh.trusted(mesh.vertices, mesh.faces)
     shapes = {"box": lambda: trimesh.creation.box(),
               "sphere": lambda: trimesh.creation.icosphere(subdivisions=2),
               "cylinder": lambda: trimesh.creation.cylinder(0.5, 1.0,
@@ -294,6 +295,73 @@ def test_shading_normals_match_the_crease_rule(kind, seed, angle):
     vertices, faces, normals = split_for_normals(mesh, angle)
     np.testing.assert_array_equal(vertices[faces], mesh.triangles.astype(np.float32))
     np.testing.assert_array_equal(normals[faces.ravel()], shading.normals[shading.corner_index])
+
+
+def angles_between(a, b):
+    """Degrees between the rows of ``a`` and ``b``."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1),
+                                 np.einsum("ij,ij->i", a, b)))
+
+
+def test_pipe_normals_from_its_rings_are_the_tube_surface_normals():
+    # a helix: the tube's surface normal at a ring vertex points away from the ring's
+    # centre on the path (rings stand square to the path); the caps' along the path
+    turns = np.linspace(0, 4 * np.pi, 400)
+    path = cadpipe.Path(np.c_[np.cos(turns), np.sin(turns), 0.1 * turns])
+    pipe = cadpipe.Pipe(path, 0.05, sides=24)
+    mesh = pipe.mesh()
+    assert mesh.ring_runs is not None
+    normals, per_vertex = corner_normals(mesh)
+    assert not per_vertex
+    shading = shading_normals(mesh)
+    rings = np.arange(len(mesh.vertices)) // 24
+    on_side = np.isin(np.arange(len(shading.corner_index)), shading.corners, invert=True)
+    corner_vertex = mesh.faces.ravel()
+    radial = mesh.vertices[corner_vertex] - path.points[rings[corner_vertex]]
+    assert angles_between(normals[on_side], radial[on_side]).max() < 0.5
+    # the general rule agrees within 0.1 degree, and splits the same corners
+    general = cadpipe.Mesh.trusted(mesh.vertices, mesh.faces)
+    assert angles_between(normals, corner_normals(general)[0]).max() < 0.1
+    np.testing.assert_array_equal(np.sort(shading.corners),
+                                  np.sort(shading_normals(general).corners))
+    # moved, relabelled: the same layout, the normals turned with the mesh
+    turn = cadpipe.solids.transform.as_matrix(np.array([[0.0, -1, 0, 1], [1, 0, 0, 2],
+                                                        [0, 0, 1, 3], [0, 0, 0, 1]]))
+    moved = mesh.transformed(turn).with_parts(["helix"])
+    assert moved.ring_runs is not None
+    np.testing.assert_allclose(corner_normals(moved)[0], normals @ turn[:3, :3].T, atol=1e-6)
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**31), sides=st.integers(3, 40), angle=st.floats(0, 180))
+def test_pipe_normals_from_its_rings_follow_the_crease_rule(seed, sides, angle):
+    # a pipe's inner rings take their normals from their ring neighbours where the
+    # faces around them all lie within 15 degrees: the crease rule's corners, normals
+    # within a degree and a half of its angle-weighted ones
+    rng = np.random.default_rng(seed)
+    points = np.cumsum(rng.normal(scale=0.5, size=(5, 3)), axis=0)
+    path = cadpipe.Path.spline(points, step=0.05)
+    mesh = cadpipe.Pipe(path, 0.05, sides=sides, strict=False).mesh()
+    shading = shading_normals(mesh, angle)
+    normals = shading.normals[shading.corner_index]
+    expected = crease_normals(mesh.vertices, mesh.faces, angle)
+    assert angles_between(normals, expected).max() < 1.5
+    np.testing.assert_allclose(np.linalg.norm(shading.normals, axis=1), 1.0, atol=1e-6)
+    general = shading_normals(cadpipe.Mesh.trusted(mesh.vertices, mesh.faces), angle)
+    np.testing.assert_array_equal(np.sort(shading.corners), np.sort(general.corners))
+    vertices, faces, split = split_for_normals(mesh, angle)
+    np.testing.assert_array_equal(vertices[faces], mesh.triangles.astype(np.float32))
+    np.testing.assert_array_equal(split[faces.ravel()], normals)
+
+
+def test_faceted_pipe_keeps_its_facets_along_its_rings():
+    # 8 sides at 35 degrees: 45 degrees between sides, so no ring shades smooth
+    mesh = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [1, 0, 0], [1, 1, 0.5]], step=0.1),
+                        0.1, sides=8).mesh()
+    normals, _ = corner_normals(mesh)
+    np.testing.assert_allclose(normals, crease_normals(mesh.vertices, mesh.faces, 35.0),
+                               atol=2e-6)
 
 
 # -- mesh formats ----------------------------------------------------------------

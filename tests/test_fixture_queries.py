@@ -142,19 +142,24 @@ WAYPOINTS = np.array([[1.2, -0.3, 0.0, -2.4, 0.0, 2.1, 0.8, 0.02],
                       [0.0, 0.45, 0.0, -1.2, 0.0, 1.65, 2.8, 0.02]])
 
 
-def test_trajectory_path_follows_the_motion_within_half_a_step(panda):
+@pytest.mark.parametrize("point", [None, (0.0, 0.0, 0.0), (0.3, -0.2, 0.25)])
+def test_trajectory_path_follows_the_motion_within_half_a_step(panda, point):
+    """Of the frame's origin, or of a point fixed in the frame (a tool centre point 0.45
+    from the origin: the wrist's turns move it faster than the origin)."""
     step = 0.01
-    path = Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=step)
+    path = Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=step,
+                                point=point)
     t = np.linspace(0.0, 1.0, 3001)
     dense = np.concatenate([a + t[:, None] * (b - a) for a, b in
                             zip(WAYPOINTS[:-1], WAYPOINTS[1:])])
-    truth = panda.frame_poses(dense, "panda_hand_tcp")[:, :3, 3]
+    offset = np.zeros(3) if point is None else np.array(point)
+    poses = panda.frame_poses(dense, "panda_hand_tcp")
+    truth = poses[:, :3, :3] @ offset + poses[:, :3, 3]
     samples = path.points
     gap = np.min(np.linalg.norm(truth[:, None] - samples[None], axis=2), axis=1)
     assert gap.max() <= step / 2 + 1e-12
     # the waypoints' own positions are on the path, in order
-    ends = panda.frame_poses(WAYPOINTS[[0, -1]], "panda_hand_tcp")[:, :3, 3]
-    np.testing.assert_allclose(samples[[0, -1]], ends, atol=1e-12)
+    assert np.linalg.norm(samples[[0, -1]] - truth[[0, -1]], axis=1).max() <= 1e-12
     # a safety pipe around it is one valid solid however the hand turned
     mesh = Pipe(path, radius=0.05).mesh()
     assert mesh.is_watertight and mesh.volume > 0
@@ -162,6 +167,10 @@ def test_trajectory_path_follows_the_motion_within_half_a_step(panda):
         Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=0)
     with pytest.raises(InputError, match="no such link"):
         Path.from_trajectory(panda, WAYPOINTS, frame="tool0", step=0.01)
+    with pytest.raises(InputError, match="point") as caught:
+        Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=0.01,
+                             point=(0, 1))
+    assert caught.value.key == "point"
 
 
 @pytest.mark.slow

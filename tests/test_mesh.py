@@ -131,3 +131,28 @@ def test_obj_faces_with_texture_and_normal_indices_load_as_written(tmp_path, cor
     mesh = Mesh.load(path)
     assert np.array_equal(mesh.faces, box.faces)
     assert np.isclose(mesh.volume, 6.0)
+
+
+def test_a_mesh_pickles_to_another_process_as_it_is():
+    """Arrays, parts, attributes and ring runs survive a trip through a worker process
+    (as a Dask or multiprocessing user sends meshes); the copy is read-only too."""
+    import multiprocessing
+    import pickle
+
+    from cadpipe import splice
+
+    a = Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0]], 0.1, sides=8)
+    b = Pipe([[1, 1, 0], [1, 2, 0], [2, 2, 1]], 0.1, sides=12)
+    for mesh in (a.mesh(), splice(a, b)):
+        with multiprocessing.get_context("spawn").Pool(1) as pool:
+            back = pickle.loads(pool.apply(pickle.dumps, (mesh,)))
+        np.testing.assert_array_equal(back.vertices, mesh.vertices)
+        np.testing.assert_array_equal(back.faces, mesh.faces)
+        assert back.part_names == mesh.part_names
+        assert (back.face_part is None) == (mesh.face_part is None)
+        if mesh.face_part is not None:
+            np.testing.assert_array_equal(back.face_part, mesh.face_part)
+        assert dict(back.attributes) == dict(mesh.attributes)
+        assert (back.ring_runs is None) == (mesh.ring_runs is None)
+        assert back.volume == pytest.approx(mesh.volume) and back.is_watertight
+        assert not back.vertices.flags.writeable

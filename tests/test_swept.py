@@ -449,3 +449,48 @@ def test_invalid_pipes_raise_cadpipe_errors(args):
     path = args.pop("path")
     with pytest.raises(CadpipeError):
         Pipe(path if isinstance(path, Path) else path, **args).mesh()
+
+
+# -- issue 16: a swept solid too large to search or unite is refused first ------------------
+def coil(points, turns, pitch, radius=1.0):
+    """A helix of ``turns`` turns, ``pitch`` apart: turns closer than a tube's diameter
+    overlap it all along."""
+    t = np.linspace(0, 2 * np.pi * turns, points)
+    return np.c_[radius * np.cos(t), radius * np.sin(t), pitch * t / (2 * np.pi)]
+
+
+def test_a_coil_overlapping_all_along_is_refused_by_its_budget_naming_the_part(tmp_path):
+    from cadpipe import LimitError, limits
+
+    pipe = Pipe(coil(20_000, 2, 0.025), 0.02, sides=16)    # 20 k segments, 100 pairs each
+    assembly = cadpipe.Assembly().add("coil", pipe)
+    with limits.using(max_swept_segments=5000), pytest.raises(LimitError) as caught:
+        assembly.union()
+    error = caught.value
+    assert (error.key, error.part) == ("path", "coil")
+    assert "limit of 5,000" in str(error) and "--max-swept-segments" in str(error)
+    spec = tmp_path / "coil.toml"
+    np.savetxt(tmp_path / "coil.csv", coil(20_000, 2, 0.025), delimiter=",")
+    spec.write_text('max_swept_segments = 5000\n[[parts]]\nkind = "pipe"\nname = "coil"\n'
+                    'radius = 0.02\nsides = 16\npath = "coil.csv"\n')
+    run = subprocess.run([sys.executable, "-m", "cadpipe", "build", str(spec), "-o",
+                          str(tmp_path / "coil.stl")], capture_output=True, text=True)
+    assert run.returncode != 0 and not (tmp_path / "coil.stl").exists()
+    assert "parts[0]" in run.stderr and "max_swept_segments" in run.stderr, run.stderr
+
+
+def test_the_budget_counts_the_segments_a_swept_solid_merges():
+    """A zigzag of corners past the miter limit merges every segment (ball joints), with
+    no distant pair to search: its merged segments count against the budget."""
+    from cadpipe import LimitError, limits
+
+    k = np.arange(60)
+    zigzag = np.c_[k * 0.1, (k % 2) * 1.0, np.zeros(60)]
+    merged = len(Pipe(zigzag, 0.05, sides=8).folds().segments)
+    assert merged == 59
+    with limits.using(max_swept_segments=merged - 1), pytest.raises(LimitError) as caught:
+        Pipe(zigzag, 0.05, sides=8).mesh()
+    assert caught.value.key == "path" and "about 59 segments" in str(caught.value)
+    with limits.using(max_swept_segments=merged):
+        mesh = Pipe(zigzag, 0.05, sides=8).mesh()
+    assert mesh.is_oriented and mesh.volume > 0

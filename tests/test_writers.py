@@ -152,3 +152,35 @@ def test_build_names_each_stage_on_a_plain_output(tmp_path, capsys):
         assert line in out
     assert "union" not in out                     # one part: no boolean to run
     assert np.ptp(trimesh.load(tmp_path / "s.stl").vertices, axis=0) == pytest.approx([0.1] * 3)
+
+
+@pytest.mark.parametrize("mode", ["solid", "parts"])
+def test_a_streamed_usda_holds_what_usd_cores_own_text_holds(tmp_path, mode):
+    """Issue 16: cadpipe writes a .usda's large arrays itself, a block at a time; opened by
+    usd-core, every attribute equals that of the same stage written by usd-core."""
+    from pxr import Usd
+
+    from cadpipe.io.usd import _STREAM_ROWS, build_stage, save_stage
+
+    t = np.linspace(0, 3, _STREAM_ROWS // 8)                  # arrays of several blocks
+    assembly = cadpipe.Assembly(name="two").add(
+        "wavy", cadpipe.Pipe(np.c_[t, np.sin(t), 0 * t], 0.05, sides=12), color="#ff0000")
+    assembly.add("straight", cadpipe.Pipe([[0, 0.02, 0], [3, 0.02, 0]], 0.04, sides=8),
+                 color="#00ff00")
+    ours = assembly.export(tmp_path / "ours.usda", mode=mode)
+    theirs = tmp_path / "theirs.usda"
+    save_stage(build_stage(assembly.to_scene(mode)), theirs)
+    a, b = Usd.Stage.Open(str(ours)), Usd.Stage.Open(str(theirs))
+    prims = [p.GetPath() for p in b.Traverse()]
+    assert [p.GetPath() for p in a.Traverse()] == prims
+    compared = 0
+    for path in prims:
+        for attribute in b.GetPrimAtPath(path).GetAttributes():
+            value = a.GetPrimAtPath(path).GetAttribute(attribute.GetName()).Get()
+            expected = attribute.Get()
+            if hasattr(expected, "__len__") and not isinstance(expected, str):
+                assert np.array_equal(np.asarray(value), np.asarray(expected)), attribute
+                compared += len(expected)
+            else:
+                assert value == expected, attribute
+    assert compared > 3 * _STREAM_ROWS

@@ -62,6 +62,13 @@ class Job:
         The tool point in the tool link's frame, metres.
     step : float
         Largest joint change between checked configurations (radians or metres).
+    between : bool
+        Certify the motion between the waypoints as well
+        (:meth:`cadpipe.collision.CollisionWorld.check_path` with ``between=True``).
+    tolerance : float or None
+        The motion check's clearance counted as contact (None: its default).
+    margin : float
+        The motion check's padding: "clear" proves this clearance all along.
     pipe : dict
         Options of the safety pipe (:class:`cadpipe.Pipe` keywords).
     hash : str
@@ -81,6 +88,9 @@ class Job:
     tool: str = None
     tcp: tuple = (0.0, 0.0, 0.0)
     step: float = 0.01
+    between: bool = False
+    tolerance: float = None
+    margin: float = 0.0
     pipe: dict = field(default_factory=dict)
     hash: str = ""
 
@@ -185,6 +195,8 @@ def _csv_table(file):
 def _pipe(ctx, *, radius: Number = 0.05, sides: int | None = None, caps: str = "round",
           tolerance: Number | None = None):
     """``pipe = {radius = ..., sides = ...}``: the safety pipe of a trajectory job."""
+    if not radius > 0 or radius == float("inf"):
+        raise InputError(f"must be a number > 0, got {radius!r}", key="radius")
     return {"radius": radius, "sides": sides, "caps": caps, "tolerance": tolerance}
 
 
@@ -192,8 +204,12 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
            params: dict | None = None, grid: dict | None = None, rows: str | list | None = None,
            outputs: list | None = None, trajectory: str | None = None,
            trajectories: str | None = None, dt: Number | None = None, tool: str | None = None,
-           tcp: list | None = None, step: Number = 0.01, pipe: dict | None = None):
+           tcp: list | None = None, step: Number = 0.01, between: bool | None = None,
+           tolerance: Number | None = None, margin: Number | None = None,
+           pipe: dict | None = None):
     """One table of ``jobs``: the :class:`Job` values it expands to."""
+    from cadpipe.collision.motion import motion_settings
+
     if (spec is None) == (cell is None):
         raise InputError("give spec (a spec to build) or cell (a robot cell with a "
                          "trajectory to check): exactly one", key="cell" if spec else "spec")
@@ -201,7 +217,8 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
     source = ctx.file_path(spec if spec is not None else cell, "spec" if spec else "cell")
     if kind == "build":
         for key, value in (("trajectory", trajectory), ("trajectories", trajectories),
-                           ("dt", dt), ("tool", tool), ("tcp", tcp), ("pipe", pipe)):
+                           ("dt", dt), ("tool", tool), ("tcp", tcp), ("pipe", pipe),
+                           ("between", between), ("tolerance", tolerance), ("margin", margin)):
             if value is not None:
                 raise InputError("only a trajectory job (cell = ...) has it", key=key)
         files = [None]
@@ -215,6 +232,10 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
     if tcp is not None and (len(tcp) != 3 or not all(isinstance(v, (int, float))
                                                       and not isinstance(v, bool) for v in tcp)):
         raise InputError(f"expected [x, y, z] in metres, got {tcp!r}", key="tcp")
+    if not between and (tolerance is not None or margin is not None):
+        raise InputError("only a motion check (between = true) has it",
+                         key="tolerance" if tolerance is not None else "margin")
+    tolerance, margin = motion_settings(tolerance, margin or 0.0)
     made = _outputs(outputs) if outputs is not None else ()
     spec_bytes = source.read_bytes()
     template = _parse(source)
@@ -223,7 +244,8 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
     used = placeholders(template) | placeholders(name or "")
     where = "grid" if grid is not None else "rows" if rows is not None else "params"
     options = {"outputs": made, "tool": tool, "step": float(step),
-               "tcp": tuple(map(float, tcp or (0, 0, 0))),
+               "tcp": tuple(map(float, tcp or (0, 0, 0))), "between": bool(between),
+               "tolerance": tolerance, "margin": margin,
                "pipe": ctx.call(_pipe, pipe or {}, "pipe")}
     jobs = []
     for values in sets:

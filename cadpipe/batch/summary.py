@@ -108,7 +108,7 @@ def page(summary):
     rows = []
     for r in summary["jobs"]:
         kind = "failed" if r["status"] == "failed" else "not-run" if r["status"] == "not run" \
-            else "collision" if r["verdict"] == "collision" else ""
+            else "collision" if r["verdict"] in ("collision", "too close") else ""
         cells = "".join(f"<td>{cell}</td>" for cell in _cells(r))
         rows.append(f'<tr class="{kind}">{cells}</tr>')
     state = " (interrupted: the jobs not run are listed as such)" if summary["interrupted"] \

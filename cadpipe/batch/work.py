@@ -253,12 +253,23 @@ def clearance(world, posed, hulls, dense, at):
     return best
 
 
+def _motion(job, world, posed, q):
+    """The certificate of the motion through the waypoints (a
+    :class:`~cadpipe.collision.motion.MotionCheck`), or None unless the job asks for it
+    (``between``) and the robot moves."""
+    if not job.between or len(q) < 2:
+        return None
+    return world.check_path(posed.group, q, between=True, tolerance=job.tolerance,
+                            margin=job.margin)
+
+
 def _tool(robot, tool):
-    """The tool link: ``tool``, or the link with geometry deepest in the tree."""
+    """The tool frame: ``tool`` (any frame of the robot, with or without geometry), or
+    the link with geometry deepest in the tree."""
     if tool is not None:
-        if tool not in robot.link_meshes:
-            raise InputError(f"{tool!r} is not a link of robot {robot.name} with geometry "
-                             f"({', '.join(robot.link_meshes)})", key="tool")
+        if tool not in robot.frames:
+            raise InputError(f"{tool!r} is not a frame of robot {robot.name} "
+                             f"({', '.join(robot.frames)})", key="tool")
         return tool
     depth = {robot.base: 0}
     for joint in robot.joints:                   # parents come before children
@@ -266,19 +277,28 @@ def _tool(robot, tool):
     return max(robot.link_meshes, key=lambda link: depth[link])
 
 
-def safety_pipe(job, posed, dense):
-    """The safety pipe around the tool point's path (a :class:`~cadpipe.Pipe`, circumscribed
-    and repaired where the path turns back on itself), or None when the tool stands still."""
+#: the safety pipe's path follows the tool point within this fraction of its radius
+SAMPLING = 0.05
+
+
+def safety_pipe(job, posed, q):
+    """``(tool frame, pipe)``: the safety pipe around the tool point's path over the
+    waypoints ``q`` (:func:`~cadpipe.collision.trajectory.trajectory_points`, within
+    ``SAMPLING r`` of the true motion), its radius widened by that much so the whole
+    motion lies ``r`` inside its flats; pipe None when the tool stands still."""
+    from cadpipe.collision.trajectory import trajectory_points
     from cadpipe.geometry.path import Path
     from cadpipe.geometry.pipe import Pipe
 
-    robot = posed.robot
-    tool = _tool(robot, job.tool)
-    poses = robot.link_pose_array(dense, posed.transform)[:, list(robot.link_meshes).index(tool)]
-    points = poses[:, :3, :3] @ np.asarray(job.tcp) + poses[:, :3, 3]
+    tool = _tool(posed.robot, job.tool)
+    options = {k: v for k, v in job.pipe.items() if v is not None}
+    if len(q) < 2:
+        return tool, None
+    follows = SAMPLING * options["radius"]
+    points, _ = trajectory_points(posed.robot, q, tool, 2 * follows, posed.transform, job.tcp)
     if np.ptp(points, axis=0).max() <= 1e-9:
         return tool, None
-    options = {k: v for k, v in job.pipe.items() if v is not None}
+    options["radius"] += follows
     return tool, Pipe(Path(points), envelope=True, **options)
 
 
@@ -304,13 +324,27 @@ def check(job, folder):
         f = int(np.argmax(reports.colliding))
         first = {**_moment(job, at[f]),
                  "pairs": [[a, b] for a, b, _ in reports[f].collisions]}
+    motion = _motion(job, world, posed, q)
+    moved = None
+    if motion is not None and not motion.free:
+        moved = {**_moment(job, motion.segment + motion.time), "pair": list(motion.pair),
+                 "clearance": motion.clearance}
+        contact = motion.margin == 0
+        if contact and (first is None or moved["waypoint"] < first["waypoint"]):
+            first = {**_moment(job, moved["waypoint"]), "pairs": [moved["pair"]]}
+        if contact and set(moved["pair"]) not in [{c["a"], c["b"]} for c in collisions]:
+            collisions.append({"a": moved["pair"][0], "b": moved["pair"][1],
+                               **_moment(job, moved["waypoint"]), "configurations": 0})
+    if first is not None:
+        verdict = "collision"
         gap = {"distance": 0.0, "a": first["pairs"][0][0], "b": first["pairs"][0][1],
-               **_moment(job, at[f])}
+               **_moment(job, first["waypoint"])}
     else:
+        verdict = "clear" if moved is None else "too close"
         found = clearance(world, posed, hulls, dense, at)
         gap = None if found is None else {"distance": float(found[0]), "a": found[1],
                                           "b": found[2], **_moment(job, at[found[3]])}
-    tool, pipe = safety_pipe(job, posed, dense)
+    tool, pipe = safety_pipe(job, posed, q)
     files = []
     pipe_report = None
     if pipe is not None:
@@ -320,9 +354,12 @@ def check(job, folder):
         pipe_report = {"file": "safety_pipe.stl", "radius": job.pipe["radius"],
                        "sides": pipe.sides, "triangles": len(mesh.faces), "volume_m3": mesh.volume,
                        "watertight": mesh.is_watertight}
-    verdict = "collision" if first is not None else "clear"
     write_json(folder / "report.json", {
         "verdict": verdict, "waypoints": len(q), "checked": len(dense), "step": job.step,
+        "motion": None if motion is None else {
+            "free": motion.free, "tolerance": motion.tolerance, "margin": motion.margin,
+            "states": motion.states, "distance_calls": motion.distance_calls,
+            "refused_at": moved},
         "first_collision": first, "clearance": gap, "collisions": collisions,
         "tool": tool, "tcp": list(job.tcp), "safety_pipe": pipe_report})
     files.append("report.json")

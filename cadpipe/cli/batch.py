@@ -39,7 +39,8 @@ def describe(record):
         what = f"collision {' '.join('<->'.join(p) for p in first['pairs'])} at {at}"
     elif record["clearance"] is not None:
         gap = record["clearance"]
-        what = f"clear, clearance {gap['distance'] * 1000:.1f} mm ({gap['a']} <-> {gap['b']})"
+        what = f"{record['verdict']}, clearance {gap['distance'] * 1000:.1f} mm " \
+            f"({gap['a']} <-> {gap['b']})"
     else:
         what = record["verdict"]
     run = record.get("run") or {}

@@ -180,13 +180,6 @@ class Body:
         return fcl.CollisionObject(self.fcl_geometry, fcl.Transform())
 
     @cached_property
-    def pseudo_normals(self):
-        """See :func:`cadpipe.collision.narrow.pseudo_normals` (meshes only)."""
-        from cadpipe.collision.narrow import pseudo_normals
-
-        return pseudo_normals(self.mesh)
-
-    @cached_property
     def triangle_tree(self):
         """The :class:`~cadpipe.collision.chain_mesh.TriangleTree` of the mesh (meshes
         only), walked against chains."""

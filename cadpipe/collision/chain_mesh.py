@@ -3,17 +3,34 @@ triangles, one compiled call for one pose or for thousands.
 
 Each chain unit is taken as the capsule of its larger end radius (exact for the
 untapered units of a pipe of one radius, a little larger for a tapered one: the
-model FCL's capsules gave this pair before). The mesh's triangles, ordered along
-a Morton curve of their centroids, are the leaves of a perfect binary tree of
-axis-aligned boxes (:class:`TriangleTree`, built once per mesh); the chain's
-nodes are :class:`~cadpipe.collision.hierarchy.CapsuleTree`'s, whose chords move
-with the pose and whose boxes are the chords' boxes widened by the outer radius.
-Both trees are walked in lockstep, depth first, the nearer pair of children
-first; a node pair is dropped when its boxes are farther apart than the best gap
-found (a yes/no query: than 0). A leaf pair is a capsule against a triangle: the
-exact distance from the unit's axis to the triangle (0 where the axis pierces
-it; otherwise the least of the axis' ends to the triangle and the axis to the
-triangle's edges) less the radius.
+model FCL's capsules gave this pair before). The mesh's triangles, split at
+medians of their centroids, are the leaves of a perfect binary tree
+(:class:`TriangleTree`, built once per mesh) whose nodes carry an axis-aligned
+box and, above the leaves, an oriented one along the principal axes of their
+triangles' corners (thin across a patch of a curved surface, where the
+axis-aligned box of a tilted patch is not; a leaf's is its triangle's plane).
+The chain's nodes are :class:`~cadpipe.collision.hierarchy.CapsuleTree`'s, whose
+chords move with the pose; each is placed (its chord's ends moved, their box
+widened by the outer radius) the first time a pose's walk reaches it.
+
+Both trees are walked in lockstep, depth first, splitting the larger node. A
+node pair is dropped when a lower bound of its gap exceeds the best gap found (a
+yes/no query: 0): the gap of the axis-aligned boxes, then the capsule's against
+the oriented box along its three axes (a leaf's plane); a yes/no query takes
+first the pair whose chord crosses the mesh node's middle plane across its
+thinnest axis (a contact is likelier there), any other the pair of nearer boxes.
+A leaf pair is a capsule against a triangle: dropped when both ends of the axis
+lie on one side of the triangle's plane, farther than the bound; else the exact
+distance from the unit's axis to the triangle (0 where the axis pierces it;
+otherwise the least of the axis' ends to the triangle and the axis to the
+triangle's edges) less the radius. Every bound is a true lower bound widened by
+rounding slack, so the walk drops no pair the exact test would find nearer: its
+answers are those of the exact test on every pair. On the pipe against a
+1,536-triangle torus of ``benchmarks/bench_poses.py`` the oriented boxes, the
+plane test and the order cut the node pairs a yes/no pose takes from 97 to 32
+where it finds a contact (exact leaf tests from 21 to 3) and from 147 to 50
+where it proves none (27 to 2), and placing the chain's nodes when reached saves
+the 2 us a pose spent moving all of them first (``docs/performance.md``).
 
 Containment (a unit wholly inside the mesh, or the mesh inside a unit) is not
 seen by the walk; :func:`cadpipe.collision.narrow.collide` adds it.
@@ -22,11 +39,16 @@ seen by the walk; :func:`cadpipe.collision.narrow.collide` adds it.
 import numba
 import numpy as np
 
-from cadpipe.collision.bounds import box_levels
+from cadpipe.collision.bounds import box_levels, rounding_slack
 from cadpipe.collision.convex import nearest_on_triangle
-from cadpipe.collision.hierarchy import move_points
 
 _jit = numba.njit(cache=True, nogil=True)
+#: a helper of the walk inlined into it (numba's own inlining: as a called function
+#: each node pair cost about twice as much)
+_inline = numba.njit(cache=True, nogil=True, inline="always")
+#: relative rounding slack of the walk's bounds (of the coordinates they are
+#: computed from): far above the rounding of a few products, far below any gap
+_SLACK = 1e-12
 
 
 class TriangleTree:
@@ -42,11 +64,15 @@ class TriangleTree:
     each node's triangles are split between its children along the longest
     extent of their centroids (:func:`_median_order`). ``boxes`` (nodes, 7)
     holds each node's ``lo``, ``hi`` and size (the sum of its extents);
-    ``triangles`` (leaves, 9) the leaves' corners, row by row.
+    ``frames`` (nodes above the leaves, 15) each one's oriented box: centre
+    (3), axes (3, 3, as rows, the thinnest first) and half extents (3);
+    ``triangles`` (leaves, 9) the leaves' corners, row by row. A node without
+    triangles has ``lo = inf``, ``hi = -inf`` (its frame is never read).
     """
 
     def __init__(self, vertices, faces):
-        corners = np.asarray(vertices, np.float64)[np.asarray(faces)]        # (F, 3, 3)
+        vertices = np.asarray(vertices, np.float64)
+        corners = vertices[np.asarray(faces)]                               # (F, 3, 3)
         count = len(corners)
         self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
         order = _median_order(np.ascontiguousarray(corners.mean(axis=1)), self.depth)
@@ -61,6 +87,82 @@ class TriangleTree:
         # per node lo, hi and its size (the sum of its extents, for the walk's split rule)
         size = hi[:, 0] - lo[:, 0] + hi[:, 1] - lo[:, 1] + hi[:, 2] - lo[:, 2]
         self.boxes = np.ascontiguousarray(np.concatenate([lo, hi, size[:, None]], axis=1))
+        self.frames = _frames(self.triangles, count, self.depth,
+                              rounding_slack(corners.reshape(-1, 3)))
+
+
+@_jit
+def _frames(triangles, count, depth, slack):
+    """Per node above the leaves of the tree (heap order) over the leaves
+    ``triangles`` (L, 9) (the first ``count`` hold a triangle): an oriented box
+    holding the corners of its triangles, as a row (15) of centre, axes (3, 3,
+    as rows) and half extents, the axes the principal axes of those corners
+    (the least spread first, :func:`_principal_axes`), each half extent widened
+    by ``slack``; zeros for a node without a triangle. One compiled pass: for a
+    327,680-triangle sphere 0.6 s, where numpy's batched eigh and a temporary
+    per level took 0.9."""
+    inner = (1 << depth) - 1
+    frames = np.zeros((inner, 15))
+    if inner == 0:
+        return frames
+    # moments about the corners' middle (no cancellation far from the origin)
+    low, high = np.full(3, np.inf), np.full(3, -np.inf)
+    for k in range(count):
+        for r in range(9):
+            low[r % 3] = min(low[r % 3], triangles[k, r])
+            high[r % 3] = max(high[r % 3], triangles[k, r])
+    origin = 0.5 * (low + high)
+    # per node: corner count, sums (3), second moments (xx, xy, xz, yy, yz, zz)
+    moments = np.zeros((inner, 10))
+    for k in range(count):
+        node = (inner + k - 1) // 2
+        for c in range(3):
+            x, y, z = (triangles[k, 3 * c] - origin[0], triangles[k, 3 * c + 1] - origin[1],
+                       triangles[k, 3 * c + 2] - origin[2])
+            for q, v in enumerate((1.0, x, y, z, x * x, x * y, x * z, y * y, y * z, z * z)):
+                moments[node, q] += v
+    for node in range(inner - 1, 0, -1):
+        moments[(node - 1) // 2] += moments[node]
+    spread = np.empty((3, 3))
+    for node in range(inner):
+        n = moments[node, 0]
+        if n == 0.0:
+            continue
+        mean = moments[node, 1:4] / n
+        q = 4
+        for i in range(3):
+            for j in range(i, 3):
+                spread[i, j] = spread[j, i] = moments[node, q] / n - mean[i] * mean[j]
+                q += 1
+        axes = _principal_axes(spread)
+        level = 0
+        while (2 << level) - 1 <= node:
+            level += 1
+        width = 1 << (depth - level)
+        first = (node - ((1 << level) - 1)) * width
+        lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+        for k in range(first, min(first + width, count)):
+            for c in range(3):
+                x, y, z = (triangles[k, 3 * c] - origin[0], triangles[k, 3 * c + 1] - origin[1],
+                           triangles[k, 3 * c + 2] - origin[2])
+                for r in range(3):
+                    v = axes[r, 0] * x + axes[r, 1] * y + axes[r, 2] * z
+                    lo[r], hi[r] = min(lo[r], v), max(hi[r], v)
+        for c in range(3):
+            frames[node, c] = origin[c]
+            for r in range(3):
+                frames[node, c] += axes[r, c] * 0.5 * (lo[r] + hi[r])
+                frames[node, 3 + 3 * r + c] = axes[r, c]
+            frames[node, 12 + c] = 0.5 * (hi[c] - lo[c]) + slack
+    return frames
+
+
+@_jit
+def _principal_axes(a):
+    """The eigenvectors of the symmetric (3, 3) ``a`` as rows, by ascending
+    eigenvalue (LAPACK's, through numba: orthonormal to rounding, all an
+    oriented box needs; its extents are measured along them)."""
+    return np.ascontiguousarray(np.linalg.eigh(a)[1].T)
 
 
 @_jit
@@ -223,7 +325,7 @@ def segment_triangle(a, b, t, near, far):
     return best
 
 
-@_jit
+@_inline
 def _box_gap_sq(boxes, m, lo, hi):
     """Squared distance between mesh node ``m``'s box and the box ``lo``, ``hi``."""
     total = 0.0
@@ -233,50 +335,121 @@ def _box_gap_sq(boxes, m, lo, hi):
     return total
 
 
+@_inline
+def _place_node(c, m, points, table, index, placed):
+    """Chain node ``c`` at pose ``m``: its chord's ends, moved, into ``placed[c,
+    :6]``, their box widened by the outer radius into ``placed[c, 6:12]`` (lo,
+    hi) and its size (the sum of its extents) into ``placed[c, 12]``."""
+    outer = table[c, 9]
+    for e in range(2):
+        k = index[c, e]
+        for r in range(3):
+            placed[c, 3 * e + r] = m[r, 0] * points[k, 0] + m[r, 1] * points[k, 1] \
+                + m[r, 2] * points[k, 2] + m[r, 3]
+    for r in range(3):
+        x, y = placed[c, r], placed[c, 3 + r]
+        placed[c, 6 + r] = min(x, y) - outer
+        placed[c, 9 + r] = max(x, y) + outer
+    placed[c, 12] = placed[c, 9] - placed[c, 6] + placed[c, 10] - placed[c, 7] \
+        + placed[c, 11] - placed[c, 8]
+
+
+@_inline
+def _oriented_gap(frames, m, chord, radius):
+    """A lower bound of the gap between mesh node ``m``'s oriented box (a row of
+    ``frames``) and the capsule of ``chord`` (its ends' coordinates, 6) and
+    ``radius``: the largest gap of their projections on the box's three axes,
+    less rounding slack."""
+    px, py, pz = chord[0] - frames[m, 0], chord[1] - frames[m, 1], chord[2] - frames[m, 2]
+    qx, qy, qz = chord[3] - frames[m, 0], chord[4] - frames[m, 1], chord[5] - frames[m, 2]
+    slack = _SLACK * (abs(px) + abs(py) + abs(pz) + abs(qx) + abs(qy) + abs(qz))
+    bound = -np.inf
+    for r in range(3):
+        a = frames[m, 3 + 3 * r] * px + frames[m, 4 + 3 * r] * py + frames[m, 5 + 3 * r] * pz
+        b = frames[m, 3 + 3 * r] * qx + frames[m, 4 + 3 * r] * qy + frames[m, 5 + 3 * r] * qz
+        half = frames[m, 12 + r]
+        bound = max(bound, min(a, b) - half, -half - max(a, b))
+    return bound - radius - slack
+
+
+@_inline
+def _crossing(frames, m, chord):
+    """How far the chord (6) stays from mesh node ``m``'s oriented box's middle
+    plane across its thinnest axis, -1 where it crosses it: a yes/no walk
+    takes the pair of the smaller first."""
+    a = frames[m, 3] * (chord[0] - frames[m, 0]) + frames[m, 4] * (chord[1] - frames[m, 1]) \
+        + frames[m, 5] * (chord[2] - frames[m, 2])
+    b = frames[m, 3] * (chord[3] - frames[m, 0]) + frames[m, 4] * (chord[4] - frames[m, 1]) \
+        + frames[m, 5] * (chord[5] - frames[m, 2])
+    return -1.0 if a * b <= 0.0 else min(abs(a), abs(b))
+
+
+@_inline
+def _plane_gap(t, chord, radius):
+    """A lower bound of the gap between triangle ``t`` (9,) and the capsule of
+    ``chord`` (6) and ``radius``: how far both ends lie on one side of the
+    triangle's plane (-inf where they do not), less the radius and rounding
+    slack (of the plane's and the ends' coordinates: a sliver's normal is
+    rounded the most)."""
+    e1x, e1y, e1z = t[3] - t[0], t[4] - t[1], t[5] - t[2]
+    e2x, e2y, e2z = t[6] - t[0], t[7] - t[1], t[8] - t[2]
+    nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+    ax, ay, az = chord[0] - t[0], chord[1] - t[1], chord[2] - t[2]
+    bx, by, bz = chord[3] - t[0], chord[4] - t[1], chord[5] - t[2]
+    da = nx * ax + ny * ay + nz * az
+    db = nx * bx + ny * by + nz * bz
+    if not (da > 0.0 and db > 0.0 or da < 0.0 and db < 0.0):
+        return -np.inf
+    length = np.sqrt(nx * nx + ny * ny + nz * nz)
+    slack = _SLACK * (abs(e1x) + abs(e1y) + abs(e1z)) * (abs(e2x) + abs(e2y) + abs(e2z)) * (
+        abs(ax) + abs(ay) + abs(az) + abs(bx) + abs(by) + abs(bz))
+    return (min(abs(da), abs(db)) - slack) / length - radius
+
+
 @_jit
-def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no, gap, unit,
-         near, far):
+def walk(boxes, frames, triangles, depth_m, table, index, points, depth_c, poses, yes_no, gap,
+         unit, near, far):
     """For each pose ``poses[p]`` (the chain in the mesh's frame): the least
     capsule-triangle gap into ``gap[p]``, its unit into ``unit[p]`` and the
     closest points (on the unit's axis, on the triangle; mesh frame) into
     ``near[p]``, ``far[p]``. With ``yes_no`` a pose stops at its first gap <= 0
-    (``gap`` is then that gap, not the least). ``table``, ``index``, ``points``,
-    ``depth_c``: the chain's :class:`~cadpipe.collision.hierarchy.CapsuleTree`
-    packed; ``boxes``, ``triangles``, ``depth_m``: the :class:`TriangleTree`."""
+    (``gap`` is then that gap; where none is, a positive number that need not
+    be the least). ``table``, ``index``, ``points``, ``depth_c``: the chain's
+    :class:`~cadpipe.collision.hierarchy.CapsuleTree` packed; ``boxes``,
+    ``frames``, ``triangles``, ``depth_m``: the :class:`TriangleTree`."""
     leaves_m, leaves_c = 2 ** depth_m - 1, 2 ** depth_c - 1
     nodes_c = len(table)
-    moved = np.empty((len(points), 3))
-    lo, hi, size = np.empty((nodes_c, 3)), np.empty((nodes_c, 3)), np.empty(nodes_c)
+    # each chain node's chord ends, box and size (_place_node), at the pose it was placed at
+    placed, placed_at = np.empty((nodes_c, 13)), np.full(nodes_c, -1, np.int64)
     stack_m = np.empty(4 * (depth_m + depth_c + 2), np.int64)
     stack_c = np.empty(len(stack_m), np.int64)
     stack_gap = np.empty(len(stack_m))
     on_axis, on_triangle = np.empty(3), np.empty(3)
     for p in range(len(poses)):
         m = poses[p]
-        move_points(m, points, moved)
-        for c in range(nodes_c):                 # each chain node's box, moved
-            outer = table[c, 9]
-            for r in range(3):
-                x, y = moved[index[c, 0], r], moved[index[c, 1], r]
-                lo[c, r] = min(x, y) - outer
-                hi[c, r] = max(x, y) + outer
-            size[c] = hi[c, 0] - lo[c, 0] + hi[c, 1] - lo[c, 1] + hi[c, 2] - lo[c, 2]
+        _place_node(0, m, points, table, index, placed)
+        placed_at[0] = p
         best = np.inf
         unit[p] = -1
-        stack_m[0], stack_c[0], stack_gap[0] = 0, 0, np.sqrt(_box_gap_sq(boxes, 0, lo[0], hi[0]))
+        stack_m[0], stack_c[0] = 0, 0
+        stack_gap[0] = np.sqrt(_box_gap_sq(boxes, 0, placed[0, 6:9], placed[0, 9:12]))
         top = 1
         while top:
             top -= 1
             nm, nc, bound = stack_m[top], stack_c[top], stack_gap[top]
-            if bound > (0.0 if yes_no else best) or table[nc, 9] == -np.inf:
+            radius = table[nc, 9]
+            limit = 0.0 if yes_no else best
+            if bound > limit or radius == -np.inf:
                 continue
+            chord = placed[nc, :6]
             leaf_m, leaf_c = nm >= leaves_m, nc >= leaves_c
             if leaf_m and leaf_c:
                 if index[nc, 2] < 0:
                     continue
-                tri = nm - leaves_m
-                d = segment_triangle(moved[index[nc, 0]], moved[index[nc, 1]], triangles[tri],
-                                     on_axis, on_triangle) - table[nc, 9]
+                tri = triangles[nm - leaves_m]
+                if _plane_gap(tri, chord, radius) > limit:
+                    continue
+                d = segment_triangle(chord[:3], chord[3:], tri, on_axis, on_triangle) - radius
                 if d < best:
                     best = d
                     unit[p] = index[nc, 2]
@@ -285,17 +458,29 @@ def walk(boxes, triangles, depth_m, table, index, points, depth_c, poses, yes_no
                 if yes_no and best <= 0:
                     break
                 continue
+            if (_plane_gap(triangles[nm - leaves_m], chord, radius) if leaf_m else
+                    _oriented_gap(frames, nm, chord, radius)) > limit:
+                continue
             # split the chain node when the mesh node is a leaf or the smaller box
-            split_c = not leaf_c and (leaf_m or size[nc] >= boxes[nm, 6])
-            if split_c:
+            if not leaf_c and (leaf_m or placed[nc, 12] >= boxes[nm, 6]):
                 m0, m1, c0, c1 = nm, nm, 2 * nc + 1, 2 * nc + 2
+                for c in (c0, c1):
+                    if placed_at[c] != p:
+                        _place_node(c, m, points, table, index, placed)
+                        placed_at[c] = p
             else:
                 m0, m1, c0, c1 = 2 * nm + 1, 2 * nm + 2, nc, nc
-            g0 = _box_gap_sq(boxes, m0, lo[c0], hi[c0])
-            g1 = _box_gap_sq(boxes, m1, lo[c1], hi[c1])
+            g0 = _box_gap_sq(boxes, m0, placed[c0, 6:9], placed[c0, 9:12])
+            g1 = _box_gap_sq(boxes, m1, placed[c1, 6:9], placed[c1, 9:12])
             if yes_no:
                 # only touching boxes can lead to a contact: the others would be dropped
                 # when taken, so they are not stacked (the same visits, fewer steps)
+                if g0 == 0.0 and g1 == 0.0 and (
+                        _plane_gap(triangles[m1 - leaves_m], placed[c1, :6], 0.0) <
+                        _plane_gap(triangles[m0 - leaves_m], placed[c0, :6], 0.0)
+                        if m0 >= leaves_m else _crossing(frames, m1, placed[c1, :6]) <
+                        _crossing(frames, m0, placed[c0, :6])):
+                    m0, m1, c0, c1, g0, g1 = m1, m0, c1, c0, g1, g0
                 if g1 == 0.0:
                     stack_m[top], stack_c[top], stack_gap[top] = m1, c1, 0.0
                     top += 1

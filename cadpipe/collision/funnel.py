@@ -181,6 +181,8 @@ def _holds(w, k):
     return w.at_a[k] == w.versions[w.first[k]] and w.at_b[k] == w.versions[w.second[k]]
 
 
+# numba keys a cached kernel by its own file only: a kernel compiled with the walks it
+# calls (narrow.settle, chain_mesh.walk) keeps the old ones until this file changes too
 @_jit
 def refresh(w, chosen, first_hit, stop_after_self, out_code, out_colliding):
     """One state where the objects stand, decided in one call: ``w`` is the world's

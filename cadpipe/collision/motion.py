@@ -112,7 +112,31 @@ class MotionCheck:
         return not self.free
 
 
-def check_motion(world, group, configurations, tolerance=TOLERANCE, margin=0.0):
+def motion_settings(tolerance=None, margin=0.0):
+    """``(tolerance, margin)`` of a motion check as floats, the default tolerance for
+    None; :class:`InputError` naming the key otherwise, so a spec, a planner setup and
+    a direct call refuse the same values with the same words before any work."""
+    tolerance = _finite(TOLERANCE if tolerance is None else tolerance, "tolerance")
+    if not tolerance > 0:
+        raise InputError(f"tolerance must be > 0, got {tolerance!r}", key="tolerance")
+    margin = _finite(margin, "margin")
+    if not margin >= 0:
+        raise InputError(f"margin must be >= 0, got {margin!r}", key="margin")
+    return tolerance, margin
+
+
+def _finite(value, key):
+    """``value`` as a finite float, or :class:`InputError` naming ``key``."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if isinstance(value, bool) or not np.isfinite(number):
+        raise InputError(f"{key} must be a finite number, got {value!r}", key=key)
+    return number
+
+
+def check_motion(world, group, configurations, tolerance=None, margin=0.0):
     """Certify the motion through ``(C, A)`` ``configurations`` of robot ``group``
     segment by segment, stopping at the first contact; a :class:`MotionCheck`.
 
@@ -124,7 +148,7 @@ def check_motion(world, group, configurations, tolerance=TOLERANCE, margin=0.0):
     return _certify(world, group, configurations, tolerance, margin, np.empty(0))[0]
 
 
-def proof_states(world, group, configurations, tolerance=TOLERANCE, margin=0.0,
+def proof_states(world, group, configurations, tolerance=None, margin=0.0,
                  most=100_000):
     """``(V, A)`` the configurations at which :func:`check_motion` posed the robot
     (forward kinematics, then the clearance bounds of the pairs due there), in
@@ -139,10 +163,7 @@ def proof_states(world, group, configurations, tolerance=TOLERANCE, margin=0.0,
 def _certify(world, group, configurations, tolerance, margin, times):
     """:func:`check_motion`, and per segment checked ``(index, times posed)``, up to
     ``len(times)`` of them."""
-    if not tolerance > 0:
-        raise InputError(f"tolerance must be > 0, got {tolerance!r}", key="tolerance")
-    if not margin >= 0 or not np.isfinite(margin):
-        raise InputError(f"margin must be a number >= 0, got {margin!r}", key="margin")
+    tolerance, margin = motion_settings(tolerance, margin)
     robot, base = world.robot(group)
     values = robot.joint_array(configurations)
     if len(values) < 2:
@@ -510,14 +531,20 @@ def _fastest(kinematics, chain, values, frame):
     return out
 
 
-def frame_speeds(robot, frame, values):
-    """``(S,)`` a bound of how fast the origin of ``frame`` (any frame of the robot)
-    moves, per unit of each segment's parameter, over the segments between rows
-    of ``values`` (``(C, J)`` values of every joint, as :meth:`Robot.joint_array`
-    gives them): the smaller of ``D`` and ``S + A`` of :func:`speed_bounds`."""
+def frame_speeds(robot, frame, values, reach=0.0):
+    """``(S,)`` a bound of how fast any point within ``reach`` of the origin of
+    ``frame`` (any frame of the robot) moves, per unit of each segment's
+    parameter, over the segments between rows of ``values`` (``(C, J)`` values
+    of every joint, as :meth:`Robot.joint_array` gives them): the smaller of
+    ``D`` and ``S + A`` of :func:`speed_bounds` for the origin, plus ``reach``
+    times the sum of the changes of the turning joints on the frame's chain (a
+    bound of how fast the frame turns)."""
     kinematics = (*_kinematics(robot), np.eye(4))
-    return _fastest(kinematics, _chain(robot), np.ascontiguousarray(values, np.float64),
-                    robot.frames.index(frame))
+    chain, f = _chain(robot), robot.frames.index(frame)
+    values = np.ascontiguousarray(values, np.float64)
+    turning = chain[3][f] & chain[5]                    # above the frame, and turning
+    return _fastest(kinematics, chain, values, f) + \
+        reach * np.abs(np.diff(values[:, turning], axis=0)).sum(axis=1)
 
 
 @_jit

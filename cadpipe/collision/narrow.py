@@ -3,7 +3,9 @@
 * mesh vs mesh: FCL's BVH traversal (the engine trimesh uses) finds crossing
   triangles. It never sees one closed mesh wholly inside another -- no triangles
   cross -- so when it reports no contact, one probe point per connected piece
-  of each mesh is tested against the other with the generalized winding number.
+  of each mesh is tested against the other with the generalized winding number
+  (:meth:`~cadpipe.Mesh.contains`: a ray through the mesh's box tree, built once
+  per mesh and kept with it).
 * chain vs chain: :mod:`cadpipe.collision.capsules`, in closed form.
 * chain vs mesh: the chain's capsule tree against a box tree of the mesh's
   triangles, one compiled walk (:mod:`cadpipe.collision.chain_mesh`; a unit
@@ -19,13 +21,10 @@ from functools import cache
 import numba
 import numpy as np
 
-from cadpipe.geometry.mesh import winding_numbers
 from cadpipe.collision import chain_mesh
 from cadpipe.collision.bounds import KDOP_DIRECTIONS
 from cadpipe.collision.hierarchy import chain_gaps, walk_trees
 
-#: a winding number above this is "inside" (it is 1 inside a closed outward mesh)
-INSIDE = 0.5
 #: stage codes of the exact phase (indices into ``world.STAGES``)
 FCL, CONTAINMENT, ANALYTIC = 6, 7, 8
 #: what :func:`settle` returns for a pair it leaves to the Python narrow phase
@@ -68,85 +67,6 @@ def relative_into(pose_a, pose_b, out):
 def _apply(matrix, points):
     """Points (..., K, 3) moved by matrices (..., 4, 4)."""
     return points @ matrix[..., :3, :3].swapaxes(-1, -2) + matrix[..., None, :3, 3]
-
-
-def pseudo_normals(mesh):
-    """Angle-weighted pseudo-normals of a closed mesh (Baerentzen and Aanaes, 2005):
-    per face, per vertex, and per undirected edge (rows of ``mesh.edges_unique``).
-
-    The sign of ``(p - q) . n`` at the nearest surface point ``q``, with ``n`` the
-    pseudo-normal of the feature ``q`` lies on, tells inside from outside.
-    """
-    tri = mesh.triangles
-    normals = mesh.face_normals
-    corner = np.zeros((len(tri), 3))
-    for k in range(3):
-        e1 = tri[:, (k + 1) % 3] - tri[:, k]
-        e2 = tri[:, (k + 2) % 3] - tri[:, k]
-        cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(
-            np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300)
-        corner[:, k] = np.arccos(np.clip(cos, -1.0, 1.0))
-    vertex = np.zeros((len(mesh.vertices), 3))
-    np.add.at(vertex, mesh.faces.ravel(), (corner[:, :, None] * normals[:, None]).reshape(-1, 3))
-    edge = np.zeros((len(mesh.edge_face_counts), 3))
-    np.add.at(edge, mesh.edges_unique_inverse, np.repeat(normals, 3, axis=0))
-    return normals, vertex, edge
-
-
-def mesh_contains(body, points):
-    """Which ``(P, 3)`` points (in the mesh's frame) lie inside the closed mesh body.
-
-    For each point FCL finds the nearest triangle (a BVH query); the side is the
-    sign against the pseudo-normal of the face, edge or vertex the nearest point
-    lies on. Where that sign is too close to call, the winding number decides.
-    """
-    import fcl
-
-    points = np.asarray(points, np.float64)
-    lo, hi = body.mesh.bounds
-    inside = np.all((points >= lo) & (points <= hi), axis=1)
-    if not inside.any():
-        return inside
-    faces, vertices = body.mesh.faces, body.mesh.vertices
-    normals, vertex, edge = body.pseudo_normals
-    mesh_object = body.fcl_anchor
-    probe = fcl.CollisionObject(fcl.Sphere(0.0), fcl.Transform())
-    request = fcl.DistanceRequest(enable_nearest_points=True)
-    unsure = []
-    for k in inside.nonzero()[0]:
-        probe.setTransform(fcl.Transform(points[k]))
-        result = fcl.DistanceResult()
-        fcl.distance(mesh_object, probe, request, result)
-        q, t = np.asarray(result.nearest_points[0]), result.b1
-        corners = vertices[faces[t]]
-        bary = _barycentric(q, corners)
-        small = bary < 1e-7
-        if small.sum() >= 2:                      # nearest to a vertex
-            n = vertex[faces[t, int(np.argmax(bary))]]
-        elif small.any():                         # nearest to an edge
-            i, j = faces[t][~small]
-            n = edge[body.mesh.edge_index(i, j)]
-        else:
-            n = normals[t]
-        offset = points[k] - q
-        side = float(np.dot(offset, n))
-        if abs(side) <= 1e-9 * np.linalg.norm(offset) * np.linalg.norm(n):
-            unsure.append(k)
-        inside[k] = side < 0
-    if unsure:
-        inside[unsure] = winding_numbers(body.mesh.triangles, points[unsure]) > INSIDE
-    return inside
-
-
-def _barycentric(q, corners):
-    a, b, c = corners
-    v0, v1, v2 = b - a, c - a, q - a
-    d00, d01, d11 = v0 @ v0, v0 @ v1, v1 @ v1
-    d20, d21 = v2 @ v0, v2 @ v1
-    den = d00 * d11 - d01 * d01
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    return np.array([1.0 - v - w, v, w])
 
 
 # -- yes / no ---------------------------------------------------------------------
@@ -205,7 +125,7 @@ def _inside(mesh_body, other, rel):
     near = near.nonzero()[0]
     inside = np.zeros(len(rel), bool)
     points = _apply(rel[near], other.probes)                                  # (e, K, 3)
-    found = mesh_contains(mesh_body, points.reshape(-1, 3))
+    found = mesh_body.mesh.contains(points.reshape(-1, 3))
     inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
     return inside
 
@@ -279,9 +199,9 @@ def _mesh_chain(mesh_body, chain_body, rel, yes_no):
     count = len(rel)
     gap, unit = np.empty(count), np.empty(count, np.int64)
     near, far = np.full((count, 3), np.nan), np.full((count, 3), np.nan)
-    chain_mesh.walk(mesh.boxes, mesh.triangles, mesh.depth, chain.table, chain.index,
-                    chain.points, chain.depth, np.ascontiguousarray(rel), yes_no, gap, unit,
-                    near, far)
+    chain_mesh.walk(mesh.boxes, mesh.frames, mesh.triangles, mesh.depth, chain.table,
+                    chain.index, chain.points, chain.depth, np.ascontiguousarray(rel), yes_no,
+                    gap, unit, near, far)
     return gap, unit, near, far
 
 
@@ -323,6 +243,7 @@ def settle(w, i, pose_i, j, pose_j, rel):
     gap, unit, near, far = np.empty(1), np.empty(1, np.int64), np.empty((1, 3)), \
         np.empty((1, 3))
     chain_mesh.walk(w.mesh_boxes[w.boxes_at[mesh]:w.boxes_at[mesh + 1]],
+                    w.mesh_frames[w.frames_at[mesh]:w.frames_at[mesh + 1]],
                     w.mesh_triangles[w.triangles_at[mesh]:w.triangles_at[mesh + 1]],
                     w.mesh_depth[mesh], w.tree_table[w.tree_at[other]:w.tree_at[other + 1]],
                     w.tree_index[w.tree_at[other]:w.tree_at[other + 1]],
@@ -367,12 +288,14 @@ def packed_arrays(bodies, near_chain):
     tree_index, _ = joined([t and t.index for t in trees], 3, np.int64)
     tree_points, tree_points_at = joined([t and t.points for t in trees], 3)
     mesh_boxes, boxes_at = joined([m and m.boxes for m in meshes], 7)
+    mesh_frames, frames_at = joined([m and m.frames for m in meshes], 15)
     mesh_triangles, triangles_at = joined([m and m.triangles for m in meshes], 9)
     probes, probes_at = joined(probes, 3)
     return {"tree_table": tree_table, "tree_index": tree_index, "tree_points": tree_points,
             "tree_at": tree_at, "tree_points_at": tree_points_at,
             "tree_depth": np.array([t.depth if t else 0 for t in trees], np.int64),
-            "mesh_boxes": mesh_boxes, "mesh_triangles": mesh_triangles, "boxes_at": boxes_at,
+            "mesh_boxes": mesh_boxes, "mesh_frames": mesh_frames, "frames_at": frames_at,
+            "mesh_triangles": mesh_triangles, "boxes_at": boxes_at,
             "triangles_at": triangles_at,
             "mesh_depth": np.array([m.depth if m else 0 for m in meshes], np.int64),
             "probes": probes, "probes_at": probes_at, "extremes": extremes, "inside_lo": lo,

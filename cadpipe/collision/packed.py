@@ -63,8 +63,8 @@ FIELDS = (
     ("tree_table", _F2), ("tree_index", _I2), ("tree_points", _F2), ("tree_at", _I1),
     ("tree_points_at", _I1), ("tree_depth", _I1),
     # the triangle trees (chain_mesh.TriangleTree) of meshes paired with a chain
-    ("mesh_boxes", _F2), ("mesh_triangles", _F2), ("boxes_at", _I1), ("triangles_at", _I1),
-    ("mesh_depth", _I1),
+    ("mesh_boxes", _F2), ("mesh_frames", _F2), ("mesh_triangles", _F2), ("boxes_at", _I1),
+    ("frames_at", _I1), ("triangles_at", _I1), ("mesh_depth", _I1),
     # the containment prefilter: a chain's probes and extremes, a mesh's inside_filter
     ("probes", _F2), ("probes_at", _I1), ("extremes", _F3), ("inside_lo", _F2),
     ("inside_hi", _F2), ("inside_low", _F2), ("inside_high", _F2), ("inside_slack", _F1),
@@ -88,7 +88,7 @@ def _new(points, pads, starts, slack, obb_centre, obb_axes, half, chain, closed,
          first, second, same, allowed,
          piece_points, piece_pads, piece_starts, piece_centre, piece_radius, pieces,
          tree_table, tree_index, tree_points, tree_at, tree_points_at, tree_depth,
-         mesh_boxes, mesh_triangles, boxes_at, triangles_at, mesh_depth,
+         mesh_boxes, mesh_frames, mesh_triangles, boxes_at, frames_at, triangles_at, mesh_depth,
          probes, probes_at, extremes, inside_lo, inside_hi, inside_low, inside_high,
          inside_slack, poses, versions, placed_at, kdop, centre, axes,
          at_a, at_b, code, colliding, left, left_poses, hits, certify):
@@ -102,8 +102,9 @@ def _new(points, pads, starts, slack, obb_centre, obb_axes, half, chain, closed,
     w.piece_centre, w.piece_radius, w.pieces = piece_centre, piece_radius, pieces
     w.tree_table, w.tree_index, w.tree_points = tree_table, tree_index, tree_points
     w.tree_at, w.tree_points_at, w.tree_depth = tree_at, tree_points_at, tree_depth
-    w.mesh_boxes, w.mesh_triangles = mesh_boxes, mesh_triangles
-    w.boxes_at, w.triangles_at, w.mesh_depth = boxes_at, triangles_at, mesh_depth
+    w.mesh_boxes, w.mesh_frames, w.mesh_triangles = mesh_boxes, mesh_frames, mesh_triangles
+    w.boxes_at, w.frames_at = boxes_at, frames_at
+    w.triangles_at, w.mesh_depth = triangles_at, mesh_depth
     w.probes, w.probes_at, w.extremes = probes, probes_at, extremes
     w.inside_lo, w.inside_hi, w.inside_low, w.inside_high = inside_lo, inside_hi, inside_low, \
         inside_high

@@ -11,6 +11,11 @@ parameter are at most ``step`` apart along the curve, so every point of the
 curve is within ``step / 2`` of the nearer sample. A pipe of radius ``r``
 around the polyline built with ``envelope=True`` (its polygon's flats at
 ``r``) therefore holds the ``r - step / 2`` neighbourhood of the true curve.
+
+A point fixed in the frame at ``p`` from its origin (a tool centre point)
+moves at most ``|p| W`` faster than the origin, ``W`` the sum of the
+revolute joints' changes on the frame's chain (a bound of how fast the frame
+turns), so its bound is ``V + |p| W`` (``frame_speeds(..., reach=|p|)``).
 """
 
 import numpy as np
@@ -22,8 +27,9 @@ from cadpipe.errors import InputError
 MAX_SAMPLES = 100_000
 
 
-def trajectory_points(robot, configurations, frame, step, base=None):
-    """Points along the path of ``frame``'s origin over a joint trajectory.
+def trajectory_points(robot, configurations, frame, step, base=None, point=None):
+    """Points along the path of ``frame``'s origin (or of a ``point`` fixed in
+    it) over a joint trajectory.
 
     Parameters
     ----------
@@ -37,6 +43,8 @@ def trajectory_points(robot, configurations, frame, step, base=None):
         returned samples around it, doubled (length units).
     base : (4, 4) array, optional
         Where the robot's base stands.
+    point : (3,) array, optional
+        The point followed, in ``frame``'s coordinates (default its origin).
 
     Returns
     -------
@@ -56,8 +64,11 @@ def trajectory_points(robot, configurations, frame, step, base=None):
     if len(values) < 2:
         raise InputError("a trajectory needs at least two configurations",
                          key="configurations")
+    point = np.zeros(3) if point is None else np.asarray(point, np.float64)
+    if point.shape != (3,) or not np.isfinite(point).all():
+        raise InputError(f"point must be [x, y, z], got {point.tolist()!r}", key="point")
     q = np.asarray(configurations, np.float64)
-    speeds = frame_speeds(robot, frame, values)
+    speeds = frame_speeds(robot, frame, values, reach=np.linalg.norm(point))
     counts = np.maximum(1, np.ceil(speeds / step)).astype(np.int64)
     if counts.max() > MAX_SAMPLES:
         raise InputError(f"step {step:g} would need {int(counts.max())} samples on one "
@@ -69,13 +80,14 @@ def trajectory_points(robot, configurations, frame, step, base=None):
     samples = np.concatenate([q[segment] + fraction[:, None] * (q[segment + 1] - q[segment]),
                               q[-1:]])
     poses = robot.frame_poses(samples, frame, base)
-    return poses[:, :3, 3], times
+    return poses[:, :3, :3] @ point + poses[:, :3, 3], times
 
 
-def path_from_trajectory(robot, configurations, frame, step, base=None):
-    """The :class:`~cadpipe.Path` of ``frame``'s origin over a joint trajectory;
-    see :func:`trajectory_points` (repeated points of a pause are dropped)."""
+def path_from_trajectory(robot, configurations, frame, step, base=None, point=None):
+    """The :class:`~cadpipe.Path` of ``frame``'s origin (or ``point``) over a
+    joint trajectory; see :func:`trajectory_points` (repeated points of a pause
+    are dropped)."""
     from cadpipe.geometry.path import Path
 
-    points, _ = trajectory_points(robot, configurations, frame, step, base)
+    points, _ = trajectory_points(robot, configurations, frame, step, base, point)
     return Path(points)

@@ -24,6 +24,7 @@ from functools import partial
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe._vec import dot, norm
 
 #: findings described per tube and kind of fold
@@ -312,12 +313,13 @@ def distant_pairs(tubes, first_only=False):
     turning = np.cumsum(lines.turning_angles)                       # C[k]: points 0..k
     top = len(tree.levels) - 1
     found = []
+    budget = None if first_only else _SweptBudget(groups)
     root = np.zeros(1, np.int64)
     stack = [(top, *_kept(tree, groups, turning, total, top, root, root))]
     while stack:
         level, a, b = stack.pop()
         if level == 0:
-            hit = _leaf_hits(tubes, tree, a, b, first_only)
+            hit = _leaf_hits(tubes, tree, a, b, first_only, budget)
             found.append(hit)
             if first_only and len(hit[0]):
                 break
@@ -332,6 +334,30 @@ def distant_pairs(tubes, first_only=False):
     order = np.lexsort((j, i))
     i, j, dist = i[order], j[order], dist[order]
     return i, j, dist, np.unique(np.concatenate([i, j]))
+
+
+class _SweptBudget:
+    """The pairs of segments of each tube that the search has found within reach of
+    each other so far (the candidates whose units it tests), against
+    :attr:`cadpipe.limits.Limits.max_swept_segments`: the search stops with a
+    :class:`~cadpipe.errors.LimitError` once a tube passes it, before testing them,
+    since the tests, the findings and the union that follows grow with them (a coil
+    whose turns are closer than its diameter: a hundred pairs per segment)."""
+
+    def __init__(self, groups):
+        self.tube = groups.index
+        self.counts = np.zeros(len(groups), np.int64)
+
+    def spend(self, i, j):
+        if not len(i):
+            return
+        self.counts += np.bincount(self.tube[i], minlength=len(self.counts))
+        tube = int(np.argmax(self.counts))
+        where = {"index": tube} if len(self.counts) > 1 else {}
+        limits.check("max_swept_segments", float(self.counts[tube]),
+                     "the search for the swept solid of a tube whose path comes back "
+                     "within its own reach (segment pairs to test)", at_least=True, key="path",
+                     **where)
 
 
 #: node pairs walked down at once by :func:`distant_pairs` (bounds its memory); fewer
@@ -385,10 +411,11 @@ def _kept(tree, groups, turning, total, level, a, b):
     return a[keep], b[keep]
 
 
-def _leaf_hits(tubes, tree, a, b, first_only):
+def _leaf_hits(tubes, tree, a, b, first_only, budget=None):
     """``(i, j, distance)`` of the segment column pairs ``(a, b)`` (kept at the leaves)
     whose convex units meet: real segments of one tube, not neighbours, closer than
-    their reaches."""
+    their reaches. The segments closer than their reaches are spent from ``budget``
+    (a :class:`_SweptBudget`) before their units are tested, the search's costly part."""
     groups = tubes.lines.groups
     keep = (a != b) & (groups.index[a] == groups.index[b]) & tree.real[a] & tree.real[b]
     i, j = a[keep], b[keep]
@@ -400,6 +427,8 @@ def _leaf_hits(tubes, tree, a, b, first_only):
     dist = segment_distance(xyz[:, i], seg[:, i], xyz[:, j], seg[:, j])
     close = dist < r[i] + r[j]
     i, j, dist = i[close], j[close], dist[close]
+    if budget is not None:
+        budget.spend(i, j)
     hit = _units_meet(tubes, i, j, first_only)
     return i[hit], j[hit], dist[hit]
 

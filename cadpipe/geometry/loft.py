@@ -104,6 +104,7 @@ class Surface:
         self._part_index = {}
         self._vertex_blocks = []
         self._face_blocks = []
+        self._ring_runs = []
 
     def part(self, name):
         """The index of part ``name`` (added if new)."""
@@ -162,12 +163,24 @@ class Surface:
             band_first = bands.spread(starts) + size * bands.local()
             part = None if parts is None else np.repeat(
                 np.asarray(parts, np.int32)[members], (n - 1) * 2 * size)
+            self._ring_runs.append(np.column_stack([
+                starts, n, np.full(len(n), size),
+                self.face_count + 2 * size * (np.cumsum(n - 1) - (n - 1))]))
             self.add_faces(bands.size * 2 * size, partial(_write_bands, band_first, size), part)
         for i in np.flatnonzero(closed).tolist():
             self.add_faces(2 * int(sides[i]), partial(
                 _write_seam, int(first[i]), int(count[i]), int(sides[i]),
                 int(seam_shift[i])), None if parts is None else int(parts[i]))
         return first
+
+    @property
+    def ring_runs(self):
+        """(G, 4) int64 runs of rings laid out by :meth:`add_rings`: each run's first vertex,
+        ring count, sides and first side face (its bands' faces follow one another, ring
+        ``j`` to ``j + 1`` as :func:`_band_pattern` shifted by ``j`` rings). A closed run's
+        seam band is not among them."""
+        return np.concatenate(self._ring_runs) if self._ring_runs else \
+            np.empty((0, 4), np.int64)
 
     def build(self):
         """``(vertices, faces, face_part)``; ``face_part`` is None when no block has a part."""

@@ -21,30 +21,29 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe._vec import cross
 from cadpipe.errors import InputError, MeshError
+from cadpipe.geometry.winding import WindingTree
 from cadpipe.solids.transform import as_matrix
 
 
-def winding_numbers(triangles: np.ndarray, points: np.ndarray,
-                    chunk: int = 2_000_000) -> np.ndarray:
-    """Generalized winding number of a closed triangle soup ``(F, 3, 3)`` at each point.
+def winding_numbers(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Generalized winding number of a triangle soup at each point.
 
-    The signed solid angles of the triangles seen from the point (Van Oosterom and
-    Strackee) summed over 4 pi: 1 inside a closed outward mesh, 0 outside.
-    Vectorized over triangles and points, in chunks of about ``chunk`` pairs.
+    Parameters
+    ----------
+    triangles : (F, 3, 3) float
+        Corners; corners with equal coordinates are taken as one vertex.
+    points : (P, 3) float
+
+    Returns
+    -------
+    winding : (P,) float
+        The signed solid angles of the triangles seen from each point (Van Oosterom
+        and Strackee) summed over 4 pi: 1 inside a closed outward mesh, 0 outside,
+        fractions near the surface and around open meshes. See
+        :class:`~cadpipe.geometry.winding.WindingTree` for how, and its accuracy;
+        :meth:`Mesh.winding_numbers` keeps the tree between calls.
     """
-    out = np.empty(len(points))
-    step = max(1, chunk // max(len(triangles), 1))
-    for start in range(0, len(points), step):
-        r = triangles[None, :, :, :] - points[start:start + step, None, None, :]
-        n = np.linalg.norm(r, axis=3)
-        a, b, c = r[:, :, 0], r[:, :, 1], r[:, :, 2]
-        det = np.einsum("pfi,pfi->pf", a, cross(b, c))
-        dots = (n[:, :, 0] * n[:, :, 1] * n[:, :, 2]
-                + np.einsum("pfi,pfi->pf", a, b) * n[:, :, 2]
-                + np.einsum("pfi,pfi->pf", b, c) * n[:, :, 0]
-                + np.einsum("pfi,pfi->pf", c, a) * n[:, :, 1])
-        out[start:start + step] = np.arctan2(det, dots).sum(axis=1) / (2 * np.pi)
-    return out
+    return WindingTree.of_triangles(triangles)(points)
 
 
 def connected_labels(count: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -101,6 +100,13 @@ def _frozen(arr, dtype):
     return arr
 
 
+def _unpickled(vertices, faces, face_part, part_names, attributes, ring_runs):
+    """The :class:`Mesh` that :meth:`Mesh.__reduce__` pickled (its arrays are the
+    unpickler's own, so nobody else can write to them)."""
+    return Mesh.trusted(vertices, faces, face_part=face_part, part_names=part_names,
+                        attributes=attributes, ring_runs=ring_runs)
+
+
 def _private(arr, given):
     """``arr`` (made from the argument ``given``), copied where the caller could still
     write to it: a mesh must not change when its maker's array does, nor freeze that array."""
@@ -127,7 +133,8 @@ class Mesh:
         write them as metadata.
     """
 
-    __slots__ = ("_vertices", "_faces", "_face_part", "_part_names", "_attributes", "__dict__")
+    __slots__ = ("_vertices", "_faces", "_face_part", "_part_names", "_attributes", "_ring_runs",
+                 "__dict__")
 
     def __init__(self, vertices: ArrayLike, faces: ArrayLike, *, face_part: ArrayLike | None = None,
                  part_names: Sequence[str] = (), attributes: Mapping[str, Any] | None = None):
@@ -157,11 +164,13 @@ class Mesh:
                 raise InputError("indices must point into part_names", key="face_part")
             self._face_part = _frozen(_private(face_part, given_face_part), np.int32)
         self._attributes = MappingProxyType(dict(attributes or {}))
+        self._ring_runs = None
 
     @classmethod
     def trusted(cls, vertices: np.ndarray, faces: np.ndarray, *,
                 face_part: np.ndarray | None = None, part_names: Sequence[str] = (),
-                attributes: Mapping[str, Any] | None = None) -> Mesh:
+                attributes: Mapping[str, Any] | None = None,
+                ring_runs: np.ndarray | None = None) -> Mesh:
         """Wrap arrays a cadpipe stage just built, skipping the input checks.
 
         Large pipes are built faster than they can be re-checked.
@@ -174,6 +183,9 @@ class Mesh:
             Indices into ``vertices``.
         face_part, part_names, attributes
             As for :class:`Mesh` (``face_part`` indices into ``part_names``).
+        ring_runs : (G, 4) int64, optional
+            The runs of rings these arrays were laid out in, as
+            :attr:`Surface.ring_runs <cadpipe.geometry.loft.Surface.ring_runs>` gives them.
 
         Returns
         -------
@@ -185,7 +197,15 @@ class Mesh:
         mesh._face_part = None if face_part is None else _frozen(face_part, np.int32)
         mesh._part_names = tuple(str(n) for n in part_names)
         mesh._attributes = MappingProxyType(dict(attributes or {}))
+        mesh._ring_runs = None if ring_runs is None else _frozen(ring_runs, np.int64)
         return mesh
+
+    def __reduce__(self):
+        """Pickle the arrays, labels and attributes only (caches are made again where the
+        mesh lands), so a mesh goes to worker processes (multiprocessing, Dask) as a
+        trimesh one does."""
+        return (_unpickled, (self._vertices, self._faces, self._face_part, self._part_names,
+                             dict(self._attributes), self._ring_runs))
 
     # -- data -----------------------------------------------------------------
     @property
@@ -213,6 +233,13 @@ class Mesh:
         """Read-only mapping of the parameters that made this mesh."""
         return self._attributes
 
+    @property
+    def ring_runs(self) -> np.ndarray | None:
+        """(G, 4) int64 runs of rings the mesh was laid out in (first vertex, ring count,
+        sides, first side face; see :class:`~cadpipe.geometry.loft.Surface`), or None
+        when not known. Shading normals take smooth side normals from them."""
+        return self._ring_runs
+
     def __repr__(self):
         return f"<cadpipe.Mesh {len(self._vertices)} vertices, {len(self._faces)} faces>"
 
@@ -231,8 +258,8 @@ class Mesh:
         """
         if face_part is None:
             face_part = np.zeros(len(self._faces), np.int32)
-        return Mesh(self._vertices, self._faces, face_part=face_part,
-                    part_names=part_names, attributes=self._attributes)
+        return self._same_layout(Mesh(self._vertices, self._faces, face_part=face_part,
+                                      part_names=part_names, attributes=self._attributes))
 
     def with_attributes(self, **attributes: Any) -> Mesh:
         """The same mesh with ``attributes`` added to (or replacing) its own.
@@ -246,8 +273,14 @@ class Mesh:
         -------
         mesh : Mesh
         """
-        return Mesh(self._vertices, self._faces, face_part=self._face_part,
-                    part_names=self._part_names, attributes={**self._attributes, **attributes})
+        return self._same_layout(Mesh(self._vertices, self._faces, face_part=self._face_part,
+                                      part_names=self._part_names,
+                                      attributes={**self._attributes, **attributes}))
+
+    def _same_layout(self, mesh):
+        """``mesh`` (of this mesh's faces, in order) keeping this mesh's ring runs."""
+        mesh._ring_runs = self._ring_runs
+        return mesh
 
     # -- geometry -------------------------------------------------------------
     @cached_property
@@ -408,6 +441,11 @@ class Mesh:
         """Genus of a closed single-body mesh (0 for a sphere-like tube, 1 for a loop)."""
         return (2 * self.n_bodies - self.euler_characteristic) // 2
 
+    @cached_property
+    def _winding_tree(self) -> WindingTree:
+        """The box tree of the triangles with their caps, built on the first query."""
+        return WindingTree(self._vertices, self._faces)
+
     def winding_numbers(self, points: ArrayLike) -> np.ndarray:
         """Generalized winding number of the surface around each point.
 
@@ -418,12 +456,16 @@ class Mesh:
         Returns
         -------
         winding : (P,) float
-            1 inside a closed outward mesh, 0 outside (fractions near the surface).
+            1 inside a closed outward mesh, 0 outside (fractions near the surface and
+            around open meshes). Off the surface of a closed mesh the exact integer,
+            from rays; elsewhere the sum of the triangles' solid angles over 4 pi up
+            to rounding (:class:`~cadpipe.geometry.winding.WindingTree`). The tree is
+            built on the first call and kept with the mesh.
         """
-        return winding_numbers(self.triangles, as_points(points, "points", min_count=0))
+        return self._winding_tree(as_points(points, "points", min_count=0))
 
     def contains(self, points: ArrayLike) -> np.ndarray:
-        """Which points lie inside this closed mesh (winding number above 1/2).
+        """Which points lie inside this mesh: winding number above 1/2.
 
         Parameters
         ----------
@@ -432,6 +474,12 @@ class Mesh:
         Returns
         -------
         inside : (P,) bool
+            For a closed mesh, inside its solid (exactly, but for points within
+            rounding of the surface, which may fall either way). For an open mesh,
+            where the solid-angle sum exceeds 1/2, as the brute force's: the
+            signed share of directions in which the point sees the surface's
+            back exceeds a half: points near a small hole stay inside, a point
+            in the mouth of an open tube is at about 1/2.
         """
         return self.winding_numbers(points) > 0.5
 
@@ -478,11 +526,13 @@ class Mesh:
         mesh : Mesh
         """
         matrix = as_matrix(matrix)
-        vertices = self._vertices @ matrix[:3, :3].T + matrix[:3, 3]
+        vertices = self._vertices @ matrix[:3, :3].T
+        vertices += matrix[:3, 3]                 # in place: one copy of the vertices, not two
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
         vertices.flags.writeable = False          # ours alone: checked, not copied
-        return Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
-                    attributes=self._attributes)
+        moved = Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,
+                     attributes=self._attributes)
+        return moved if faces is not self._faces else self._same_layout(moved)
 
     @staticmethod
     def concatenate(meshes: Iterable[Mesh]) -> Mesh:

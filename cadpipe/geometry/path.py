@@ -311,9 +311,10 @@ class Path:
     # -- fitted curves -------------------------------------------------------
     @classmethod
     def from_trajectory(cls, robot: Any, configurations: ArrayLike, frame: str, step: float,
-                        base: ArrayLike | None = None) -> Path:
-        """The path of a robot ``frame``'s origin over a joint trajectory, sampled so
-        the polyline follows the motion within ``step / 2``.
+                        base: ArrayLike | None = None, point: ArrayLike | None = None) -> Path:
+        """The path of a robot ``frame``'s origin (or of a ``point`` fixed in it) over
+        a joint trajectory, sampled so the polyline follows the motion within
+        ``step / 2``.
 
         Parameters
         ----------
@@ -326,6 +327,9 @@ class Path:
             Largest deviation allowed, doubled, in metres.
         base : (4, 4) array_like, optional
             Placement of the robot's base.
+        point : (3,) array_like, optional
+            A point in ``frame``'s coordinates to follow instead of its origin (a
+            tool centre point).
 
         Returns
         -------
@@ -334,7 +338,7 @@ class Path:
         """
         from cadpipe.collision.trajectory import path_from_trajectory
 
-        return path_from_trajectory(robot, configurations, frame, step, base)
+        return path_from_trajectory(robot, configurations, frame, step, base, point)
 
     @classmethod
     def spline(cls, points: ArrayLike, step: float | None = None, *,

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from cadpipe import _deprecated
+from cadpipe import _deprecated, limits
 from cadpipe._validate import as_choice, as_int, as_positive
 from cadpipe._vec import cross
 from cadpipe.errors import GeometryError, InputError
@@ -564,14 +564,21 @@ class Pipe:
         self._require_float32()
         folds = self._folds(first_only=self.strict)
         if not folds and not self._united_joints:
-            vertices, faces = self.surface(cap_start=not self.closed, cap_end=not self.closed)
-            return Mesh.trusted(vertices, faces, attributes=self.attributes)
+            surface = self._laid_out(not self.closed, not self.closed)
+            vertices, faces, _ = surface.build()
+            # the ring runs let writers take the side normals from the rings (io.normals)
+            return Mesh.trusted(vertices, faces, attributes=self.attributes,
+                                ring_runs=surface.ring_runs)
         if folds and self.strict:
             problems = folds.messages
             more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
             raise GeometryError(f"the pipe intersects itself: {problems[0]}{more}; smooth the "
                                 "path, reduce the radius, or build the swept solid instead",
                                 fix={"strict": False})
+        limits.check("max_swept_segments", len(folds.segments),
+                     "the swept solid of a tube whose path comes back within its own reach "
+                     "(segments to merge)",
+                     key="path")
         return self._swept_mesh(folds)
 
     def _require_float32(self):
@@ -606,10 +613,14 @@ class Pipe:
         vertices : (V, 3) float
         faces : (F, 3) int
         """
+        vertices, faces, _ = self._laid_out(cap_start, cap_end).build()
+        return vertices, faces
+
+    def _laid_out(self, cap_start, cap_end):
+        """The :class:`Surface` of :meth:`surface`, before it is built."""
         surface = Surface()
         add_pipe_surfaces(surface, self._tubes, [self], cap_start=[cap_start], cap_end=[cap_end])
-        vertices, faces, _ = surface.build()
-        return vertices, faces
+        return surface
 
     def units(self, overlap: float = 0.0) -> list[np.ndarray]:
         """Deprecated: :meth:`convex_pieces` (``units`` is a length unit elsewhere)."""

@@ -366,7 +366,10 @@ class Assembly:
         mesh = meshes[0] if len(meshes) == 1 else Mesh.concatenate(meshes)
         order = [p for p in self._parts if p in mesh.part_names]
         rank = np.array([order.index(n) for n in mesh.part_names], np.int32)
-        return Mesh.trusted(mesh.vertices, mesh.faces, face_part=rank[mesh.face_part],
+        # in order already (one part): the labels as they are, not a relabelled copy of F
+        labels = mesh.face_part if np.array_equal(rank, np.arange(len(rank))) else \
+            rank[mesh.face_part]
+        return Mesh.trusted(mesh.vertices, mesh.faces, face_part=labels,
                             part_names=order, attributes=attributes)
 
     def union(self, progress: Callable[[str, int, int], object] | None = None) -> Mesh:

@@ -1,14 +1,12 @@
 """Faces of a mesh that cut through each other (self-intersections).
 
-Broad phase: a bounding-volume hierarchy over the triangles. They are sorted
-along a Morton (Z-order) curve and grouped into leaves of :data:`LEAF`
-triangles; the tree is a complete binary tree in heap order (node ``k`` has
-children ``2k`` and ``2k + 1``, the leaves are the last ``L`` nodes), built
-level by level in numpy. Each leaf is then queried against the tree in one
-compiled loop (numba, like the collision kernels), which tests the triangle
-pairs of overlapping leaves as it finds them: a million triangles take about a
-second, where a level-by-level numpy expansion of every node pair spent most of
-its time gathering boxes of pairs that share a vertex.
+Broad phase: the box tree of the triangles (:class:`~cadpipe.geometry.boxtree.BoxTree`:
+Morton order, leaves of :data:`~cadpipe.geometry.boxtree.LEAF` triangles, heap-ordered
+nodes). Each leaf is then queried against the tree in one compiled loop (numba,
+like the collision kernels), which tests the triangle pairs of overlapping leaves
+as it finds them: a million triangles take about a second, where a level-by-level
+numpy expansion of every node pair spent most of its time gathering boxes of
+pairs that share a vertex.
 
 Narrow phase: two triangles that share no vertex intersect when an edge of
 one passes through the interior of the other. Touching (within
@@ -19,10 +17,8 @@ share a vertex or coplanar overlaps (those show up as non-manifold edges).
 import numba
 import numpy as np
 
+from cadpipe.geometry.boxtree import LEAF, BoxTree
 from cadpipe.solids.booleans import float32_step
-
-#: triangles per leaf of the hierarchy
-LEAF = 4
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -34,7 +30,7 @@ def self_intersections(mesh):
     if len(faces) < 2:
         return np.empty((0, 2), np.int64)
     tri = np.ascontiguousarray(mesh.triangles)
-    tree = _Tree(*_triangle_boxes(tri))
+    tree = BoxTree.of_triangles(tri)
     found = _traverse(*tree.arrays(), True, tri, np.ascontiguousarray(faces),
                       np.ascontiguousarray(mesh.face_normals), touching_tolerance(mesh))
     return found[np.lexsort((found[:, 1], found[:, 0]))]
@@ -70,54 +66,8 @@ def box_pairs(lo, hi):
     if len(lo) < 2:
         return np.empty((0, 2), np.int64)
     none = np.empty((0, 3, 3))
-    return _traverse(*_Tree(lo, hi).arrays(), False, none, np.empty((0, 3), np.int64),
+    return _traverse(*BoxTree(lo, hi).arrays(), False, none, np.empty((0, 3), np.int64),
                      np.empty((0, 3)), 0.0)
-
-
-@_jit
-def _triangle_boxes(tri):
-    """(F, 3) lower and upper corners of the triangles ``tri`` (F, 3, 3)."""
-    lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
-    for f in range(len(tri)):
-        for axis in range(3):
-            lo[f, axis] = min(tri[f, 0, axis], tri[f, 1, axis], tri[f, 2, axis])
-            hi[f, axis] = max(tri[f, 0, axis], tri[f, 1, axis], tri[f, 2, axis])
-    return lo, hi
-
-
-class _Tree:
-    """The hierarchy of boxes ``lo``, ``hi`` (N, 3): Morton order, heap-ordered node boxes."""
-
-    def __init__(self, lo, hi):
-        lo, hi = np.ascontiguousarray(lo, np.float64), np.ascontiguousarray(hi, np.float64)
-        self.n = n = len(lo)
-        self.order = np.argsort(_morton(lo, hi), kind="stable")
-        leaves = 1 << int(np.ceil(np.log2(max(1, -(-n // LEAF)))))
-        self.lo, self.hi, self.node_lo, self.node_hi = _build(lo, hi, self.order, leaves)
-
-    def arrays(self):
-        return self.node_lo, self.node_hi, self.lo, self.hi, self.order, self.n
-
-
-@_jit
-def _build(lo, hi, order, leaves):
-    """Boxes in Morton order, padded to ``leaves * LEAF`` with empty boxes (lo = +inf,
-    hi = -inf: they overlap nothing), and the node boxes, leaves first, then each
-    level from the one below."""
-    size = leaves * LEAF
-    sorted_lo, sorted_hi = np.full((size, 3), np.inf), np.full((size, 3), -np.inf)
-    node_lo, node_hi = np.full((2 * leaves, 3), np.inf), np.full((2 * leaves, 3), -np.inf)
-    for i in range(len(order)):
-        leaf = leaves + i // LEAF
-        for axis in range(3):
-            sorted_lo[i, axis], sorted_hi[i, axis] = lo[order[i], axis], hi[order[i], axis]
-            node_lo[leaf, axis] = min(node_lo[leaf, axis], sorted_lo[i, axis])
-            node_hi[leaf, axis] = max(node_hi[leaf, axis], sorted_hi[i, axis])
-    for node in range(leaves - 1, 0, -1):
-        for axis in range(3):
-            node_lo[node, axis] = min(node_lo[2 * node, axis], node_lo[2 * node + 1, axis])
-            node_hi[node, axis] = max(node_hi[2 * node, axis], node_hi[2 * node + 1, axis])
-    return sorted_lo, sorted_hi, node_lo, node_hi
 
 
 @_jit
@@ -231,26 +181,3 @@ def _edges_pierce(edges_of, d, target, normal, tol):
         if inside:
             return True
     return False
-
-
-@_jit
-def _morton(lo, hi):
-    """Z-order curve key of each box's centre (21 bits per axis over the centres' bounds)."""
-    n = len(lo)
-    centre = (lo + hi) / 2
-    low = np.empty(3)
-    span = np.empty(3)
-    for axis in range(3):
-        low[axis] = centre[:, axis].min() if n else 0.0
-        span[axis] = centre[:, axis].max() - low[axis] if n else 0.0
-        if not span[axis] > 0:
-            span[axis] = 1.0
-    key = np.zeros(n, np.uint64)
-    for i in range(n):
-        k = np.uint64(0)
-        for axis in range(3):
-            cell = np.uint64((centre[i, axis] - low[axis]) / span[axis] * (2**21 - 1))
-            for bit in range(21):
-                k |= ((cell >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
-        key[i] = k
-    return key
