@@ -2,7 +2,11 @@
 
 import numpy as np
 import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+import cadpipe
 from cadpipe import InputError, Mesh, MeshError, Pipe
 
 
@@ -156,3 +160,26 @@ def test_a_mesh_pickles_to_another_process_as_it_is():
         assert (back.ring_runs is None) == (mesh.ring_runs is None)
         assert back.volume == pytest.approx(mesh.volume) and back.is_watertight
         assert not back.vertices.flags.writeable
+
+
+@settings(max_examples=40, deadline=None)
+@given(points=st.integers(1, 300).flatmap(lambda n: st.lists(
+    st.tuples(*[st.floats(-1e6, 1e6, allow_nan=False)] * 3), min_size=n, max_size=n)),
+       single=st.booleans())
+def test_bounds_are_the_least_and_greatest_coordinates(points, single):
+    # one compiled pass (Mesh.bounds, the USD extent, the GLB accessors' min/max) against
+    # numpy's reductions, exactly, in the points' own dtype
+    from cadpipe._vec import bounds
+
+    array = np.array(points, np.float32 if single else np.float64)
+    found = bounds(array)
+    assert found.dtype == array.dtype
+    np.testing.assert_array_equal(found, [array.min(axis=0), array.max(axis=0)])
+    np.testing.assert_array_equal(bounds(np.empty((0, 3))), np.zeros((2, 3)))
+
+
+def test_mesh_bounds_match_trimesh():
+    mesh = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [1, 2, 0], [3, 1, 2]], step=0.05),
+                        0.1, sides=12).mesh()
+    np.testing.assert_array_equal(
+        mesh.bounds, trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).bounds)

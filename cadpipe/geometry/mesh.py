@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 
 from cadpipe import _deprecated
 from cadpipe._validate import as_points
-from cadpipe._vec import cross
+from cadpipe._vec import bounds, cross
 from cadpipe.errors import InputError, MeshError
 from cadpipe.geometry.winding import WindingTree
 from cadpipe.solids.transform import as_matrix
@@ -327,9 +327,7 @@ class Mesh:
     @cached_property
     def bounds(self) -> np.ndarray:
         """(2, 3) array: minimum and maximum corner."""
-        if len(self._vertices) == 0:
-            return np.zeros((2, 3))
-        return np.array([self._vertices.min(axis=0), self._vertices.max(axis=0)])
+        return bounds(self._vertices)
 
     # -- topology -------------------------------------------------------------
     @cached_property

@@ -20,7 +20,7 @@ every corner cost several times the plain write of a GLB. A pipe's mesh knows
 its runs of rings (``Mesh.ring_runs``): its inner rings take their normals
 from their ring neighbours in one lighter pass, checked against the faces
 between them, and only the faces around end rings and caps go through the
-general passes (:func:`_ring_shading`; 9 against 21 ms for a million
+general passes (:func:`_ring_shading`; 3 against 21 ms for a million
 triangles). The result is cached on the mesh (an immutable value) per crease
 angle, so a scene written as USD and GLB computes it once.
 """
@@ -197,7 +197,7 @@ def _ranges(starts, stops):
 
 
 #: rings per chunk of :func:`_inner_ring_normals` (its component rows stay in cache)
-_RINGS = 64
+_RINGS = 128
 
 
 @_jit
@@ -208,54 +208,85 @@ def _inner_ring_normals(vertices, runs, normals, inner, cos_spread):
 
     A vertex's normal is the chord around its ring crossed with the sum of its two
     unit edges along the tube (unit, so unequal segments do not tilt it). A chunk of
-    rings at a time, copied into component rows, so that a vertex's neighbours are
-    the same positions of shifted slices and one loop over the chunk vectorizes; it
-    takes the next vertex in the rows as the ring's, so the first and last vertex of
-    each ring (where the ring wraps) are done again after it. The face test compares
-    squares (``n . m >= cos |n|``), with no root.
+    rings at a time is copied into component rows, float32 about the chunk's first
+    vertex (its edges keep 24 bits), each ring padded with its last vertex before it
+    and its first after it: a vertex's neighbours are then the same positions of
+    shifted rows, with no wrap to handle, so every loop runs over whole rows and
+    vectorizes. The pads' own results are dropped.
     """
     cos2 = np.float32(cos_spread * cos_spread)
-    off = 0                          # failed tests
+    off = 0                          # failed tests: faces off, degenerate normals
     for r in range(len(runs)):
         first, count, sides = runs[r, 0], runs[r, 1], runs[r, 2]
-        size = (_RINGS + 3) * sides
+        w = sides + 2                                # a padded ring
+        size = (_RINGS + 3) * w
         x, y, z = (np.empty(size, np.float32), np.empty(size, np.float32),
                    np.empty(size, np.float32))
-        nx, ny, nz = (np.empty(size, np.float32), np.empty(size, np.float32),
-                      np.empty(size, np.float32))
         ex, ey, ez = (np.empty(size, np.float32), np.empty(size, np.float32),
                       np.empty(size, np.float32))
+        nx, ny, nz = (np.empty(size, np.float32), np.empty(size, np.float32),
+                      np.empty(size, np.float32))
+        seam = np.ones(size, np.int64)
+        seam[w - 1::w] = 0
+        position = np.empty(_RINGS * sides, np.int64)   # of each vertex in padded rows
+        for i in range(len(position)):
+            position[i] = i // sides * w + i % sides + 1
         for j0 in range(1, count - 1, _RINGS):
             j1 = min(j0 + _RINGS, count - 1)          # inner rings j0..j1-1 written
             last = min(j1, count - 2)                 # normals of j0..last (one more to test)
-            base = first + (j0 - 1) * sides           # points: rings j0-1..last+1
-            ox, oy, oz = vertices[base, 0], vertices[base, 1], vertices[base, 2]
-            for i in range((last - j0 + 3) * sides):   # float32 about the chunk's first
-                x[i] = vertices[base + i, 0] - ox      # vertex: its edges keep 24 bits
-                y[i] = vertices[base + i, 1] - oy
-                z[i] = vertices[base + i, 2] - oz
-            p, m = sides, (last - j0 + 1) * sides     # ring j0 in the points; normals
-            _unit_edges(x, y, z, x[sides:], y[sides:], z[sides:], ex, ey, ez, m + sides)
-            _ring_normals(x[p + 1:], y[p + 1:], z[p + 1:], x[p - 1:], y[p - 1:], z[p - 1:],
-                          ex[p:], ey[p:], ez[p:], ex, ey, ez, nx, ny, nz, m)
-            for n in range(0, m, sides):              # where the ring wraps
-                _wrap_normal(x, y, z, ex, ey, ez, nx, ny, nz, p + n, n, 1, sides - 1, sides)
-                _wrap_normal(x, y, z, ex, ey, ez, nx, ny, nz, p + n + sides - 1,
-                             n + sides - 1, 1 - sides, -1, sides)
-            bands = min(last - 1, count - 3) - j0 + 1   # between inner rings
-            if bands > 0:
-                m = bands * sides
-                off += _band_off(x[p:], y[p:], z[p:], x[p + 1:], y[p + 1:], z[p + 1:],
-                                 nx[:], ny[:], nz[:], nx[1:], ny[1:], nz[1:], sides, cos2, m)
-                for n in range(sides - 1, m, sides):     # the quads across the wrap
-                    off += _quad_off(x, y, z, nx, ny, nz, p + n, n, 1 - sides, sides, cos2) - \
-                        _quad_off(x, y, z, nx, ny, nz, p + n, n, 1, sides, cos2)
-            for i in range((j1 - j0) * sides):
-                v = first + j0 * sides + i
-                normals[v, 0], normals[v, 1], normals[v, 2] = nx[i], ny[i], nz[i]
-                off += not abs(nx[i]) + abs(ny[i]) < np.float32(2)   # NaN, inf: degenerate
-                inner[v] = True
+            rings = last - j0 + 3                     # points: rings j0-1..last+1
+            base = first + (j0 - 1) * sides
+            _padded_rows(vertices, base, sides, rings, x, y, z)
+            # unit edges from each point to the next ring's; then the normals of the
+            # rings between the first and last row (normal row q: point row q + 1)
+            _unit_edges(x, y, z, x[w:], y[w:], z[w:], ex, ey, ez, (rings - 1) * w)
+            _ring_normals(x[w + 1:], y[w + 1:], z[w + 1:], x[w - 1:], y[w - 1:], z[w - 1:],
+                          ex[w:], ey[w:], ez[w:], ex, ey, ez, nx, ny, nz, (rings - 2) * w)
+            for n in (nx, ny, nz):                    # the pads' normals: their vertices'
+                for q in range(rings - 2):
+                    n[q * w] = n[q * w + sides]
+                    n[q * w + w - 1] = n[q * w + 1]
+            off += _bands_off(x, y, z, nx, ny, nz, sides, last - j0, cos2, seam)
+            written = (j1 - j0) * w
+            off += _degenerate(nx, ny, written)
+            start, stop = first + j0 * sides, first + j1 * sides
+            _from_padded(nx, ny, nz, normals[start:stop], position)
+            inner[start:stop] = True
     return off == 0
+
+
+@_jit
+def _degenerate(nx, ny, m):
+    """How many of normals ``[:m]`` are not finite (of a zero edge or chord)."""
+    bad = 0
+    for o in range(m):
+        bad += not abs(nx[o]) + abs(ny[o]) < np.float32(2)
+    return bad
+
+
+@_jit
+def _from_padded(nx, ny, nz, out, position):
+    """``out`` (M, 3): the normals at ``position`` of padded component rows (a gather
+    from cache and a write in order, which is faster than the scatter)."""
+    for i in range(len(out)):
+        o = position[i]
+        out[i, 0], out[i, 1], out[i, 2] = nx[o], ny[o], nz[o]
+
+
+@_jit
+def _padded_rows(vertices, base, sides, rings, x, y, z):
+    """Copy ``rings`` rings of ``sides`` vertices from row ``base`` into padded component
+    rows (the ring's last vertex, the ring, its first), about the first vertex."""
+    ox, oy, oz = vertices[base, 0], vertices[base, 1], vertices[base, 2]
+    w = sides + 2
+    for q in range(rings):
+        ring, row = base + q * sides, q * w
+        for k in range(sides):
+            x[row + 1 + k] = vertices[ring + k, 0] - ox
+            y[row + 1 + k] = vertices[ring + k, 1] - oy
+            z[row + 1 + k] = vertices[ring + k, 2] - oz
+        x[row], y[row], z[row] = x[row + sides], y[row + sides], z[row + sides]
+        x[row + w - 1], y[row + w - 1], z[row + w - 1] = x[row + 1], y[row + 1], z[row + 1]
 
 
 @_jit
@@ -281,38 +312,40 @@ def _ring_normals(ax, ay, az, bx, by, bz, ux, uy, uz, dx, dy, dz, nx, ny, nz, m)
 
 
 @_jit
-def _wrap_normal(x, y, z, ex, ey, ez, nx, ny, nz, p, n, after, before, sides):
-    """:func:`_ring_normals` of the one point ``p`` into ``n``, its ring neighbours
-    ``p + after`` and ``p + before``."""
-    _ring_normals(x[p + after:], y[p + after:], z[p + after:], x[p + before:],
-                  y[p + before:], z[p + before:], ex[p:], ey[p:], ez[p:], ex[p - sides:],
-                  ey[p - sides:], ez[p - sides:], nx[n:], ny[n:], nz[n:], 1)
+def _bands_off(x, y, z, nx, ny, nz, sides, bands, cos2, seam):
+    """How many corners of the first ``bands`` bands' triangles are more than the spread
+    (``cos2``: its cosine squared) off their normals: ``f . n < cos |f|``, compared as
+    squares with no root. Band ``q`` lies between point rows ``q + 1`` and ``q + 2``
+    (normal rows ``q`` and ``q + 1``); its quad at ``a`` has the triangles (a, b, c)
+    and (b, d, c), ``b`` next in the row, ``c`` and ``d`` in the next one.
+
+    One loop over all the bands' positions, so that it vectorizes (a ring's few sides
+    would not): the quad at a padded row's first position repeats its last real one,
+    and ``seam`` (0 at a row's last position, 1 elsewhere) drops the one that spans
+    two rows.
+    """
+    w = sides + 2
+    return _quads_off(x[w:], y[w:], z[w:], x[w + 1:], y[w + 1:], z[w + 1:],
+                      x[2 * w:], y[2 * w:], z[2 * w:], x[2 * w + 1:], y[2 * w + 1:],
+                      z[2 * w + 1:], nx, ny, nz, nx[1:], ny[1:], nz[1:], nx[w:], ny[w:],
+                      nz[w:], nx[w + 1:], ny[w + 1:], nz[w + 1:], seam, cos2, bands * w)
 
 
 @_jit
-def _band_off(ax, ay, az, bx, by, bz, mx, my, mz, qx, qy, qz, sides, cos2, m):
-    """How many of the band pattern's triangles (a, b, c), (b, d, c) of quads ``[:m]``
-    are more than the spread (``cos2``: its cosine squared) off a corner's normal: ``a``
-    and its normal ``m``, ``b`` and ``q``; ``c`` and ``d`` are ``sides`` further on."""
+def _quads_off(ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz, max_, may, maz, mbx, mby, mbz,
+               mcx, mcy, mcz, mdx, mdy, mdz, seam, cos2, m):
+    """:func:`_bands_off` of quads ``[:m]``, each corner ``a``..``d`` and its normal in
+    arrays of its own (indexed by the loop alone, so the loads are contiguous)."""
     off = 0
     for o in range(m):
-        s = o + sides
-        off += _triangle_off(ax[o], ay[o], az[o], bx[o], by[o], bz[o], ax[s], ay[s], az[s],
-                             mx[o], my[o], mz[o], qx[o], qy[o], qz[o], mx[s], my[s], mz[s],
-                             cos2)
-        off += _triangle_off(bx[o], by[o], bz[o], bx[s], by[s], bz[s], ax[s], ay[s], az[s],
-                             qx[o], qy[o], qz[o], qx[s], qy[s], qz[s], mx[s], my[s], mz[s],
-                             cos2)
+        off += seam[o] * (
+            _triangle_off(ax[o], ay[o], az[o], bx[o], by[o], bz[o], cx[o], cy[o], cz[o],
+                          max_[o], may[o], maz[o], mbx[o], mby[o], mbz[o],
+                          mcx[o], mcy[o], mcz[o], cos2)
+            + _triangle_off(bx[o], by[o], bz[o], dx[o], dy[o], dz[o], cx[o], cy[o], cz[o],
+                            mbx[o], mby[o], mbz[o], mdx[o], mdy[o], mdz[o],
+                            mcx[o], mcy[o], mcz[o], cos2))
     return off
-
-
-@_jit
-def _quad_off(x, y, z, nx, ny, nz, p, n, next_, sides, cos2):
-    """:func:`_band_off` of the one quad at point ``p`` (normal ``n``), ``b`` at
-    ``p + next_``."""
-    return _band_off(x[p:], y[p:], z[p:], x[p + next_:], y[p + next_:], z[p + next_:], nx[n:],
-                     ny[n:], nz[n:], nx[n + next_:], ny[n + next_:], nz[n + next_:], sides,
-                     cos2, 1)
 
 
 @_jit

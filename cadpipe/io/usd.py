@@ -235,8 +235,7 @@ def _define_mesh(stage, prim_path, painted, crease_angle, streamed=None):
     geom.CreateFaceVertexCountsAttr(counts)
     geom.CreateFaceVertexIndicesAttr(indices)
     del points, counts, indices
-    bounds = np.stack([mesh.vertices.min(0), mesh.vertices.max(0)])
-    geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(bounds))
+    geom.CreateExtentAttr(Vt.Vec3fArray.FromNumpy(mesh.bounds))
     geom.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     geom.CreateOrientationAttr(UsdGeom.Tokens.rightHanded)
     geom.CreateDoubleSidedAttr(False)
