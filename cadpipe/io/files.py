@@ -342,7 +342,10 @@ def welded(mesh):
         return mesh
     faces = np.empty_like(mesh.faces)
     _renumber(mesh.faces.reshape(-1), inverse, faces.reshape(-1))
-    return Mesh.trusted(rows[first], faces, face_part=mesh.face_part,
+    # the first-seen points are often the leading rows (a GLB's crease copies come last):
+    # then they are a view, not a copy
+    kept = rows[:len(first)] if first[-1] == len(first) - 1 else rows[first]
+    return Mesh.trusted(kept, faces, face_part=mesh.face_part,
                         part_names=mesh.part_names, attributes=mesh.attributes)
 
 
