@@ -28,7 +28,6 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -37,6 +36,7 @@ import trimesh
 from cadpipe import Mesh, Pipe
 
 sys.path.insert(0, str(FilePath(__file__).parent.parent / "tests"))
+from _common import interleaved  # noqa: E402
 from oracle import winding_numbers as brute  # noqa: E402
 
 SIDES = 16
@@ -114,17 +114,6 @@ def first_queries(mesh, points):
     return {"cadpipe": lambda: Mesh(mesh.vertices, mesh.faces).contains(points),
             "trimesh": lambda: trimesh.Trimesh(mesh.vertices, mesh.faces,
                                                process=False).contains(points)}
-
-
-def interleaved(runs, repeat):
-    results = {name: run() for name, run in runs.items()}
-    times = {name: [] for name in runs}
-    for _ in range(repeat):
-        for name, run in runs.items():
-            start = time.perf_counter()
-            run()
-            times[name].append(time.perf_counter() - start)
-    return {name: float(np.median(t)) for name, t in times.items()}, results
 
 
 def main():

@@ -322,7 +322,8 @@ def test_mesh_walk_drops_no_touching_pair_at_grazing_poses():
                     moved = m.copy()
                     moved[:3, 3] += (gap - left) * towards
                     poses.append(moved)
-                    touching.append(len(poses) - 1) if left < 0 else None
+                    if left < 0:
+                        touching.append(len(poses) - 1)
         poses = np.array(poses)
         expected = np.array([every_pair(corners, m)[0] for m in poses])
         count = len(poses)

@@ -99,8 +99,8 @@ class Streamed:
         """Write ``text`` (the layer's) to ``fh`` with each placeholder replaced by its
         array, a block of rows at a time."""
         at = 0
-        for key, (kind, array) in sorted(self.arrays.items(), key=lambda kv: text.index(kv[0])):
-            where = text.index(key)
+        for where, key in sorted((text.index(key), key) for key in self.arrays):
+            kind, array = self.arrays[key]
             fh.write(text[at:where] + "[")
             rows = array.reshape(len(array), -1) if kind == "vec3" else array.reshape(-1, 1)
             for start in range(0, len(rows), _STREAM_ROWS):
