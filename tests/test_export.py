@@ -119,7 +119,7 @@ def test_usd_passes_validation_and_reopens_as_written(tmp_path, scene, usd_valid
         geom = UsdGeom.Mesh(stage.GetPrimAtPath(f"/work_cell/{prim_name}/{prim_name}"))
         assert geom, f"missing mesh of {prim_name}"
         points = np.asarray(geom.GetPointsAttr().Get())
-        assert len(points) == len(part.mesh.vertices)
+        np.testing.assert_array_equal(points, part.mesh.vertices.astype(np.float32))
         assert np.asarray(geom.GetFaceVertexCountsAttr().Get()).tolist() == \
             [3] * len(part.mesh.faces)
         np.testing.assert_array_equal(np.asarray(geom.GetFaceVertexIndicesAttr().Get()),
@@ -129,7 +129,8 @@ def test_usd_passes_validation_and_reopens_as_written(tmp_path, scene, usd_valid
         assert geom.GetSubdivisionSchemeAttr().Get() == UsdGeom.Tokens.none
         normals = UsdGeom.PrimvarsAPI(geom).GetPrimvar("normals")
         assert normals.GetInterpolation() == UsdGeom.Tokens.faceVarying   # hard cap rims
-        assert len(normals.ComputeFlattened()) == 3 * len(part.mesh.faces)
+        np.testing.assert_array_equal(np.asarray(normals.ComputeFlattened()),
+                                      corner_normals(part.mesh)[0])
 
     plain = stage.GetPrimAtPath("/work_cell/plain_pipe")
     world = UsdGeom.Xformable(plain).ComputeLocalToWorldTransform(Usd.TimeCode.Default())
@@ -189,6 +190,38 @@ def test_lone_pipe_exports_with_its_parameters(tmp_path, usd_validation, suffix)
     assert part.GetAttribute("cadpipe:sides").Get() == 9
     assert part.GetAttribute("cadpipe:radius_max").Get() == pytest.approx(0.1)
     assert part.GetAttribute("cadpipe:caps").Get() == "flat"
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int64, np.int32])
+def test_arrays_reach_usd_core_as_its_own_conversion_gives_them(dtype):
+    from pxr import Vt
+
+    from cadpipe.io.usd import vt_ints, vt_vec3f
+
+    rng = np.random.default_rng(7)
+    for rows in (1, 2, 1000):
+        numbers = (rng.normal(size=(rows, 3)) * 1e3).astype(dtype)
+        made = vt_vec3f(numbers)
+        numbers[0] = 0                       # usd-core's array is its own, not a view
+        assert isinstance(made, Vt.Vec3fArray)
+        np.testing.assert_array_equal(np.asarray(made)[1:],
+                                      np.asarray(Vt.Vec3fArray.FromNumpy(numbers))[1:])
+        whole = rng.integers(-2**31, 2**31, size=(rows, 3)).astype(np.int64).astype(dtype)
+        made = vt_ints(whole)
+        assert isinstance(made, Vt.IntArray)
+        np.testing.assert_array_equal(np.asarray(made), whole.ravel().astype(np.int32))
+    assert len(vt_vec3f(np.empty((0, 3)))) == 0 and len(vt_ints(np.empty(0, np.int64))) == 0
+
+
+def test_usd_arrays_fall_back_to_usd_cores_conversion_where_storage_is_not_shown():
+    from pxr import Vt
+
+    from cadpipe.io.usd import _checked
+
+    source = np.array([4, 5, 6])
+    elsewhere = source.astype(np.int32)         # filled, but not usd-core's storage
+    made = _checked(Vt.IntArray(3), elsewhere, elsewhere.ctypes.data, source, Vt.IntArray)
+    assert list(made) == [4, 5, 6]
 
 
 # -- shading normals --------------------------------------------------------------
