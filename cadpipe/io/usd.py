@@ -349,7 +349,7 @@ def _corner_index(shading):
 
 def _bind_materials(geom, painted, materials):
     """Bind the part's material, or one per source part through GeomSubsets."""
-    from pxr import UsdGeom, UsdShade, Vt
+    from pxr import UsdGeom, UsdShade
 
     binding = UsdShade.MaterialBindingAPI.Apply(geom.GetPrim())
     if len(painted.names) == 1:
@@ -357,11 +357,11 @@ def _bind_materials(geom, painted, materials):
         return
     subset_names = set()
     for label, (name, rgb) in enumerate(zip(painted.names, painted.colors)):
-        faces = np.flatnonzero(painted.labels == label).astype(np.int32)
+        faces = np.flatnonzero(painted.labels == label)
         if len(faces) == 0:
             continue
         subset = binding.CreateMaterialBindSubset(_valid_name(name, subset_names),
-                                                  Vt.IntArray.FromNumpy(faces),
+                                                  vt_ints(faces),
                                                   UsdGeom.Tokens.face)
         UsdShade.MaterialBindingAPI.Apply(subset.GetPrim()).Bind(materials.get(name, rgb))
     binding.SetMaterialBindSubsetsFamilyType(UsdGeom.Tokens.partition)
