@@ -36,12 +36,20 @@ chromium:
 	command -v chromium >/dev/null || (apt-get update && apt-get install -y chromium)
 
 # the programs tests/test_consumers.py opens cadpipe's files with: PrusaSlicer (Debian,
-# needs root to install) and the Khronos glTF validator (npm, into .tools/); lib3mf and
-# usd-core come with the test extra
+# needs root to install), the Khronos glTF validator (npm, into .tools/) and Blender as a
+# Python module (bpy from PyPI, into a venv of its own: its wheels are for CPython 3.11 and
+# numpy < 2, which .venv's packages have outgrown); lib3mf and usd-core come with the test
+# extra
 GLTF_VALIDATOR := .tools/node_modules/gltf-validator/package.json
-consumers: $(GLTF_VALIDATOR)
+BLENDER := .tools/blender/.installed-stamp
+consumers: $(GLTF_VALIDATOR) $(BLENDER)
 	command -v prusa-slicer >/dev/null || (apt-get update && \
 		apt-get install -y --no-install-recommends prusa-slicer)
+
+$(BLENDER):
+	$(PYTHON) -m venv .tools/blender
+	.tools/blender/bin/python -m pip install --quiet 'bpy>=5.0.1'
+	touch $@
 
 $(GLTF_VALIDATOR):
 	command -v node >/dev/null || (apt-get update && apt-get install -y nodejs npm)

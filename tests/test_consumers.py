@@ -3,8 +3,10 @@
 PrusaSlicer slices the STL and 3MF (layers, no "empty" or "not manifold"
 warning), lib3mf (the 3MF Consortium's reader) reads the 3MF with a colour per
 part and no warnings, the Khronos glTF validator finds no errors in the GLB,
-and the USDZ follows AR Quick Look's rules. All of it on the demo's files and
-on each example spec's. The programs are installed by ``make consumers``.
+the USDZ follows AR Quick Look's rules (all of it on the demo's files and on
+each example spec's), and Blender shows the parts of a GLB and a USD named,
+coloured, at size and shaded as cadpipe shades them. The programs are installed
+by ``make consumers``.
 """
 
 import json
@@ -17,9 +19,10 @@ from scipy.spatial import cKDTree
 
 import cadpipe
 from cadpipe.cli import main
-from cadpipe.cli.welding_cell import run_demo
+from cadpipe.cli.welding_cell import build_cell, run_demo
 from cadpipe.io.files import export, load_scene
 from cadpipe.io.flatten import labelled
+from cadpipe.io.normals import shading_normals
 from cadpipe.io.scene import as_scene
 
 ROOT = FilePath(__file__).resolve().parent.parent
@@ -278,6 +281,66 @@ def test_a_unions_face_colours_read_back(tmp_path, crossing, suffix):
     distance, face = cKDTree(union.triangles.mean(axis=1)).query(centres)
     assert distance.max() < 1e-6 and len(np.unique(face)) == len(union.faces)
     np.testing.assert_array_equal(found, expected[face])
+
+
+# -- Blender -----------------------------------------------------------------------------
+#: Blender as a Python module (bpy), in a venv of its own (``make consumers``)
+BLENDER = ROOT / ".tools" / "blender" / "bin" / "python"
+
+
+def blender_reads(path, out):
+    """What Blender's importer makes of ``path`` (see ``tests/blender_probe.py``)."""
+    run = subprocess.run([str(BLENDER), str(ROOT / "tests" / "blender_probe.py"), str(out),
+                          str(path)], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, (run.stdout + run.stderr)[-2000:]
+    return (json.loads((out / f"{path.name}.json").read_text()),
+            np.load(out / f"{path.name}.npz"))
+
+
+def assert_blender_shows(scene, path, out):
+    """Blender shows each part of ``scene`` as an object of its name under the scene's,
+    with its colour, at its size in metres, shaded with cadpipe's normals; from USD each
+    part is one closed surface (every edge between two faces)."""
+    objects, arrays = blender_reads(path, out)
+    assert sorted(objects) == sorted(p.name for p in scene.parts)
+    for part in scene.parts:
+        found = objects[part.name]
+        assert found["parent"] == scene.name
+        (material, rgb), = found["materials"]
+        assert material == part.name
+        np.testing.assert_allclose(rgb, labelled(scene, part).colors[0], atol=1e-6)
+        # each polygon is the part's triangle with the same corners, in metres
+        world = part.world_mesh(scene.scale_to("m"))
+        corners = arrays[f"{part.name}/corners"].reshape(-1, 3, 3)
+        distance, face = cKDTree(world.triangles.mean(axis=1)).query(corners.mean(axis=1))
+        assert len(corners) == len(world.faces) == len(np.unique(face))
+        which = np.linalg.norm(corners[:, :, None] - world.triangles[face][:, None],
+                               axis=3).argmin(axis=2)
+        assert np.linalg.norm(corners - np.take_along_axis(world.triangles[face],
+                                                           which[..., None], axis=1),
+                              axis=2).max() < 1e-6 * max(1.0, np.abs(world.bounds).max())
+        # the normals Blender draws are the crease-angle normals cadpipe computed
+        shading = shading_normals(part.mesh)
+        turn = np.eye(3) if part.transform is None else np.asarray(part.transform)[:3, :3]
+        expected = shading.normals[shading.corner_index].reshape(-1, 3, 3) @ \
+            np.linalg.inv(turn)
+        expected /= np.linalg.norm(expected, axis=2, keepdims=True)
+        expected = np.take_along_axis(expected[face], which[..., None], axis=1)
+        drawn = arrays[f"{part.name}/normals"].reshape(-1, 3, 3)
+        assert np.einsum("fki,fki->fk", drawn, expected).min() > np.cos(np.radians(0.1))
+        if path.suffix != ".glb":              # glTF splits vertices at creases by design
+            assert (arrays[f"{part.name}/edge_faces"] == 2).all()
+
+
+@pytest.mark.parametrize("name", ["scene.glb", "scene.usda", "scene.usdz"])
+def test_blender_shows_the_demo_parts_named_coloured_at_size_and_shaded(demo, tmp_path, name):
+    assert_blender_shows(as_scene(build_cell().assembly), demo / name, tmp_path)
+
+
+@pytest.mark.parametrize("suffix", ["glb", "usdc", "usdz"])
+def test_blender_shows_a_millimetre_scene_in_metres(tmp_path, two_part_scene, suffix):
+    target = export(two_part_scene, tmp_path / f"cell.{suffix}")
+    assert_blender_shows(two_part_scene, target, tmp_path)
 
 
 # -- round trips through cadpipe's own readers ------------------------------------------
