@@ -69,15 +69,24 @@ def wavy_pipe(points, sides):
 
 def interleaved(runs, **contenders):
     """{name: (median wall s, median CPU s)}: each contender once untimed (compilation,
-    caches), then once per round, rounds in turn (A B A B). CPU time is the process's,
-    so it includes any thread a contender leaves spinning (OpenBLAS's do, after a
-    matrix product, on a busy machine): run with ``OPENBLAS_NUM_THREADS=1`` to keep
-    that out of the next contender's figure."""
+    caches), then once per round, each round starting one contender later (A B C, B C A,
+    C A B, ...). CPU time is the process's, so it includes any thread a contender leaves
+    spinning (OpenBLAS's do, after a matrix product, on a busy machine): run with
+    ``OPENBLAS_NUM_THREADS=1`` to keep that out of the next contender's figure.
+
+    The order turns because what runs after a contender that frees much memory pays for
+    it: here, a large write right after trimesh's GLB export took 2-6x its time in the
+    kernel's copy into the page cache (this virtual machine reports freed pages to its
+    host, virtio-balloon free page reporting, and pages handed back fault in again when
+    used), and a fixed A B C order charged that to one contender every round."""
     for call in contenders.values():
         call()
     times = {name: [] for name in contenders}
-    for _ in range(runs):
-        for name, call in contenders.items():
+    names = list(contenders)
+    for round_ in range(runs):
+        turn = round_ % len(names)
+        for name in names[turn:] + names[:turn]:
+            call = contenders[name]
             wall, cpu = time.perf_counter(), time.process_time()
             call()
             times[name].append((time.perf_counter() - wall, time.process_time() - cpu))
