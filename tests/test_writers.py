@@ -167,9 +167,13 @@ def test_a_streamed_usda_holds_what_usd_cores_own_text_holds(tmp_path, mode):
         "wavy", cadpipe.Pipe(np.c_[t, np.sin(t), 0 * t], 0.05, sides=12), color="#ff0000")
     assembly.add("straight", cadpipe.Pipe([[0, 0.02, 0], [3, 0.02, 0]], 0.04, sides=8),
                  color="#00ff00")
+    # numbers whose shortest text usd-core writes positionally (0.00001), numpy not (1e-05)
+    assembly.add("tiny", cadpipe.Pipe([[0, -1e-4, 0], [1e-4, -1e-4, 0]], 2e-5, sides=8))
     ours = assembly.export(tmp_path / "ours.usda", mode=mode)
     theirs = tmp_path / "theirs.usda"
     save_stage(build_stage(assembly.to_scene(mode)), theirs)
+    # the same text, number for number (usd-core formats each block: float32's shortest)
+    assert ours.read_text() == theirs.read_text()
     a, b = Usd.Stage.Open(str(ours)), Usd.Stage.Open(str(theirs))
     prims = [p.GetPath() for p in b.Traverse()]
     assert [p.GetPath() for p in a.Traverse()] == prims

@@ -103,16 +103,12 @@ class Streamed:
         for where, key in sorted((text.index(key), key) for key in self.arrays):
             kind, array = self.arrays[key]
             fh.write(text[at:where] + "[")
-            rows = array.reshape(len(array), -1) if kind == "vec3" else array.reshape(-1, 1)
+            rows = array.reshape(len(array), -1) if kind == "vec3" else array.reshape(-1)
+            convert = vt_vec3f if kind == "vec3" else vt_ints
             for start in range(0, len(rows), _STREAM_ROWS):
-                block = rows[start:start + _STREAM_ROWS]
-                if kind == "vec3":       # float32's shortest text, as usd-core writes it
-                    cells = block.astype(np.float32).astype(str).ravel().tolist()
-                    fh.write(("" if start == 0 else ", ") +
-                             ("({}, {}, {}), " * len(block))[:-2].format(*cells))
-                else:
-                    fh.write(("" if start == 0 else ", ") +
-                             ", ".join(map(str, block.ravel().tolist())))
+                # usd-core's own text of the block (float32's shortest form), brackets off
+                fh.write(("" if start == 0 else ", ") +
+                         str(convert(rows[start:start + _STREAM_ROWS]))[1:-1])
             fh.write("]")
             at = where + len(key)
         fh.write(text[at:])
