@@ -214,14 +214,3 @@ def test_overlapping_shells_of_an_imported_stl_are_unioned(tmp_path, capsys):
     # two unit cubes (1000 mm) overlapping in a 0.5-cube: 2 - 0.125 litres... of mm^3
     assert out.volume == pytest.approx((2 - 0.125) * 1000.0 ** 3, rel=1e-6)
     assert out.n_bodies == 1
-
-
-def test_the_summary_of_a_huge_solid_skips_the_topology_pass(tmp_path, capsys, monkeypatch):
-    from cadpipe.cli import build
-
-    monkeypatch.setattr(build, "SUMMARY_TOPOLOGY_TRIANGLES", 100)
-    path = spec(tmp_path, TWO_CROSSING)
-    assert main(["build", str(path), "-o", str(tmp_path / "a.stl")]) == 0
-    out = capsys.readouterr().out
-    assert "bodies and watertightness not measured above 100 triangles" in out
-    assert "watertight=" not in out

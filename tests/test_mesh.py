@@ -183,3 +183,52 @@ def test_mesh_bounds_match_trimesh():
                         0.1, sides=12).mesh()
     np.testing.assert_array_equal(
         mesh.bounds, trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).bounds)
+
+
+def _edited_solids(pieces, edits, seed):
+    """Faces of a few closed bodies (tubes and boxes), some faces then removed, doubled,
+    flipped or rewired: closed and open meshes, several bodies, non-manifold edges."""
+    rng = np.random.default_rng(seed)
+    meshes = [cadpipe.Pipe([[k, 0, 0], [k, 1, 0.5 * k]], 0.3, sides=int(rng.integers(3, 9))
+                           ).mesh() if k % 2 else cadpipe.primitives.box([1, 1, 1])
+              for k in range(pieces)]
+    mesh = Mesh.concatenate(meshes)
+    faces = np.array(mesh.faces)
+    for kind in edits:
+        f = int(rng.integers(len(faces)))
+        if kind == "drop":
+            faces = np.delete(faces, f, axis=0)
+        elif kind == "double":
+            faces = np.vstack([faces, faces[f:f + 1]])
+        elif kind == "flip":
+            faces[f] = faces[f, ::-1]
+        else:                                           # a corner moved to any vertex
+            faces[f, int(rng.integers(3))] = int(rng.integers(len(mesh.vertices)))
+    return len(mesh.vertices), faces
+
+
+@settings(max_examples=80, deadline=None)
+@given(pieces=st.integers(1, 4), seed=st.integers(0, 2**31),
+       edits=st.lists(st.sampled_from(["drop", "double", "flip", "rewire"]), max_size=3))
+def test_edge_table_pieces_and_closedness_agree_with_numpy_scipy_and_trimesh(pieces, edits,
+                                                                             seed):
+    # compiled passes (geometry.topology) against the sort and the sparse graph they
+    # replaced, and trimesh's watertightness
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from cadpipe.geometry.topology import closed, connected_labels, edge_table
+
+    count, faces = _edited_solids(pieces, edits, seed)
+    edges = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    keys = edges.min(axis=1) * count + edges.max(axis=1)
+    for found, expected in zip(edge_table(faces, count),
+                               np.unique(keys, return_inverse=True, return_counts=True)):
+        np.testing.assert_array_equal(found, expected.reshape(-1))
+    graph = coo_matrix((np.ones(len(edges), np.int8), (edges[:, 0], edges[:, 1])),
+                       shape=(count, count))
+    np.testing.assert_array_equal(connected_labels(count, edges[:, 0], edges[:, 1]),
+                                  connected_components(graph, directed=False)[1])
+    watertight = trimesh.Trimesh(np.zeros((count, 3)), faces, process=False).is_watertight
+    assert closed(faces, count) == watertight
+    assert Mesh.trusted(np.zeros((count, 3)), faces).is_watertight == watertight

@@ -80,19 +80,12 @@ def build(args):
         report.print(f"wrote {path}")
 
 
-#: above this many triangles the summary leaves out bodies and watertightness: their
-#: edge tables take about 200 bytes a triangle (13 GB for a 2M-point pipe)
-SUMMARY_TOPOLOGY_TRIANGLES = 20_000_000
-
-
 def _summary(assembly, solid):
-    """The line printed at the end: parts, triangles, bodies, volume, watertightness."""
-    head = f"{assembly.name}: {len(assembly.parts)} parts, {len(solid.faces)} triangles"
-    volume = f"volume {solid.volume:.6g} {assembly.units}^3"
-    if len(solid.faces) > SUMMARY_TOPOLOGY_TRIANGLES:
-        return (f"{head}, {volume}; bodies and watertightness not measured above "
-                f"{SUMMARY_TOPOLOGY_TRIANGLES:,} triangles (cadpipe check FILE measures them)")
-    return f"{head}, {solid.n_bodies} bodies, {volume}, watertight={solid.is_watertight}"
+    """The line printed at the end: parts, triangles, bodies, volume, watertightness
+    (compiled passes of a few bytes a triangle, ``geometry.topology``: at any size)."""
+    return (f"{assembly.name}: {len(assembly.parts)} parts, {len(solid.faces)} triangles, "
+            f"{solid.n_bodies} bodies, volume {solid.volume:.6g} {assembly.units}^3, "
+            f"watertight={solid.is_watertight}")
 
 
 def _outputs(args, spec):

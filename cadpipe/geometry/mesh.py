@@ -21,6 +21,7 @@ from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe._vec import bounds, cross
 from cadpipe.errors import InputError, MeshError
+from cadpipe.geometry.topology import closed, connected_labels, edge_table
 from cadpipe.geometry.winding import WindingTree
 from cadpipe.solids.transform import as_matrix
 
@@ -44,28 +45,6 @@ def winding_numbers(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
         :meth:`Mesh.winding_numbers` keeps the tree between calls.
     """
     return WindingTree.of_triangles(triangles)(points)
-
-
-def connected_labels(count: int, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Connected-component label of each of ``count`` nodes linked by the pairs ``(a, b)``.
-
-    Parameters
-    ----------
-    count : int
-        Number of nodes.
-    a, b : (E,) int array
-        The links' ends.
-
-    Returns
-    -------
-    labels : (count,) int32
-        Equal labels for nodes joined by a chain of links (scipy's connected_components).
-    """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    graph = coo_matrix((np.ones(len(a), np.int8), (a, b)), shape=(count, count))
-    return connected_components(graph, directed=False)[1]
 
 
 def merge_tables(tables: Iterable[Sequence[Hashable]]) -> tuple[tuple, list[np.ndarray]]:
@@ -355,10 +334,9 @@ class Mesh:
 
     @cached_property
     def _unique_edges(self):
-        """Sorted undirected edge keys, each directed edge's row among them, and counts."""
-        e = self.edges
-        return np.unique(self.edge_keys(e[:, 0], e[:, 1]), return_inverse=True,
-                         return_counts=True)
+        """Sorted undirected edge keys, each directed edge's row among them, and counts
+        (``np.unique`` of :meth:`edge_keys` of :attr:`edges`, in compiled passes)."""
+        return edge_table(self._faces, len(self._vertices))
 
     @property
     def edges_unique(self) -> np.ndarray:
@@ -395,7 +373,9 @@ class Mesh:
     def is_watertight(self) -> bool:
         """Closed: every edge is shared by exactly two faces (trimesh's meaning; the
         faces' winding is not looked at, see :attr:`is_oriented`)."""
-        return bool(len(self._faces) and np.all(self.edge_face_counts == 2))
+        if "_unique_edges" in self.__dict__:
+            return bool(len(self._faces) and np.all(self.edge_face_counts == 2))
+        return closed(self._faces, len(self._vertices))   # without the whole edge table
 
     @cached_property
     def is_winding_consistent(self) -> bool:
@@ -418,15 +398,19 @@ class Mesh:
     @cached_property
     def body_labels(self) -> np.ndarray:
         """(V,) connected-component label of each vertex."""
-        e = self.edges
-        return connected_labels(len(self._vertices), e[:, 0], e[:, 1])
+        f = self._faces                       # each face's first corner with the others
+        return connected_labels(len(self._vertices), np.broadcast_to(f[:, :1], (len(f), 2)),
+                                f[:, 1:])
 
     @cached_property
     def n_bodies(self) -> int:
         """Number of connected pieces (vertices used by no face are ignored)."""
         if len(self._faces) == 0:
             return 0
-        return int(len(np.unique(self.body_labels[self._faces[:, 0]])))
+        labels = self.body_labels
+        used = np.zeros(int(labels.max()) + 1, np.bool_)
+        used[labels[self._faces[:, 0]]] = True
+        return int(np.count_nonzero(used))
 
     @cached_property
     def euler_characteristic(self) -> int:

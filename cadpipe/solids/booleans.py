@@ -19,7 +19,8 @@ import numpy as np
 
 from cadpipe.errors import GeometryError, MeshError
 from cadpipe.geometry.ragged import Groups
-from cadpipe.geometry.mesh import Mesh, connected_labels
+from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.topology import connected_labels
 
 #: :func:`snap` welds vertices closer than this fraction of the mesh's bounding-box diagonal
 SNAP_TOLERANCE = 1e-6
