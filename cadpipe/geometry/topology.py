@@ -41,16 +41,9 @@ def edge_table(faces, count):
 
 
 def closed(faces, count):
-    """Whether every undirected edge of ``faces`` has exactly two of them (watertight),
-    found without the edge table: 4 bytes a directed edge beside the faces.
-
-    Parameters
-    ----------
-    faces : (F, 3) int array
-        Vertex indices in ``[0, count)``.
-    count : int
-        Number of vertices.
-    """
+    """Whether every undirected edge of ``faces`` (parameters as :func:`edge_table`) has
+    exactly two of them (watertight), found without the edge table: 4 bytes a directed
+    edge beside the faces."""
     faces = _as_faces(faces)
     if len(faces) == 0:
         return False

@@ -280,8 +280,8 @@ def vt_ints(array):
 
 
 def _vt_array(vt_type, count, dtype, width=None):
-    """``(array, view)``: a new usd-core array of ``count`` elements and a writeable numpy
-    view of its storage; None where usd-core does not show its storage.
+    """``(array, view, address)``: a new usd-core array of ``count`` elements, a writeable
+    numpy view of its storage and where that is; None where usd-core does not show it.
 
     ``Vt.*.FromNumpy`` converts a number at a time through a call per number (3-4 ns
     each: 10 ms of a million triangles' indices, a fifth of a whole ``.usdc`` write). A
