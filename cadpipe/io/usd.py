@@ -292,7 +292,10 @@ def _vt_array(vt_type, count, dtype, width=None):
     if count == 0:
         return None
     made = vt_type(count)
-    shown = np.asarray(made)
+    try:
+        shown = np.asarray(made)
+    except (TypeError, ValueError, BufferError):      # a usd-core without the buffer
+        return None
     shape = (count,) if width is None else (count, width)
     if shown.shape != shape or shown.dtype != dtype:
         return None
