@@ -17,7 +17,11 @@ CPU seconds, ratios cadpipe / peer; the load average is printed with them):
   for the pipe as ``Pipe.mesh()`` makes it (its inner rings' normals from their ring
   neighbours) and for its arrays alone (a mesh read from a file: the general passes);
   and usd-core alone holding the normals as cadpipe writes them (indexed faceVarying)
-  against vertex normals on a mesh whose crease vertices are split, as glTF's are.
+  against vertex normals on a mesh whose crease vertices are split, as glTF's are;
+- the mesh's topology (``geometry.topology``): the edge table against ``np.unique`` of
+  the edge keys, watertightness against trimesh's on a new ``Trimesh``, and the
+  bodies' vertex labels against scipy's connected components (``np.unique`` and scipy
+  are what cadpipe used before).
 
 Then, in a fresh process per format, the peak resident memory of writing a large
 pipe (``--points`` points, 16 sides) above the memory before the write (freed memory
@@ -43,6 +47,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 import cadpipe
+from cadpipe.geometry.topology import edge_table
 from cadpipe.io.files import export, load_mesh
 from cadpipe.io.normals import shading_normals
 from cadpipe.solids.intersect import self_intersections
@@ -174,6 +179,25 @@ def same_findings(folder):
     return len(ours), len(theirs), bool(np.array_equal(ours, theirs))
 
 
+def numpy_edges(mesh):
+    """The edge table as cadpipe made it before ``geometry.topology``: ``np.unique`` of
+    the directed edges' keys, with the inverse and the counts."""
+    e = mesh.edges
+    return np.unique(mesh.edge_keys(e[:, 0], e[:, 1]), return_inverse=True,
+                     return_counts=True)
+
+
+def scipy_labels(mesh):
+    """Connected pieces as cadpipe found them before: scipy's connected components of
+    the edges' sparse graph."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    e, count = mesh.edges, len(mesh.vertices)
+    graph = coo_matrix((np.ones(len(e), np.int8), (e[:, 0], e[:, 1])), shape=(count, count))
+    return connected_components(graph, directed=False)[1]
+
+
 def fresh(mesh):
     """A new mesh object of the same arrays and ring runs (as ``Pipe.mesh()`` gives
     them): nothing cached from an earlier write."""
@@ -240,6 +264,16 @@ def speed(runs, points):
         t = interleaved(runs, normals=lambda: shading_normals(fresh(mesh)),
                         general=lambda: shading_normals(bare(mesh)))
         rows.append(("shading normals alone", t["normals"], "arrays alone", t["general"]))
+        t = interleaved(runs, cadpipe=lambda: edge_table(mesh.faces, len(mesh.vertices)),
+                        numpy=lambda: numpy_edges(mesh))
+        rows.append(("edge table", t["cadpipe"], "np.unique", t["numpy"]))
+        t = interleaved(runs, cadpipe=lambda: bare(mesh).is_watertight,
+                        trimesh=lambda: trimesh.Trimesh(mesh.vertices, mesh.faces,
+                                                        process=False).is_watertight)
+        rows.append(("watertight", t["cadpipe"], "trimesh", t["trimesh"]))
+        t = interleaved(runs, cadpipe=lambda: bare(mesh).body_labels,
+                        scipy=lambda: scipy_labels(mesh))
+        rows.append(("bodies (vertex labels)", t["cadpipe"], "scipy", t["scipy"]))
         findings = same_findings(folder)
     print(f"{'what':26s} {'cadpipe wall':>12s} {'CPU':>7s}  {'peer':16s} {'wall':>7s} "
           f"{'CPU':>7s}  {'ratio wall':>10s} {'CPU':>6s}")

@@ -373,8 +373,6 @@ class Mesh:
     def is_watertight(self) -> bool:
         """Closed: every edge is shared by exactly two faces (trimesh's meaning; the
         faces' winding is not looked at, see :attr:`is_oriented`)."""
-        if "_unique_edges" in self.__dict__:
-            return bool(len(self._faces) and np.all(self.edge_face_counts == 2))
         return closed(self._faces, len(self._vertices))   # without the whole edge table
 
     @cached_property

@@ -35,7 +35,6 @@ def edge_table(faces, count):
     counts : (E,) int64
         Directed edges on each undirected one: faces around it.
     """
-    faces, count = _as_faces(faces), max(int(count), 1)
     rows, start = _grouped(faces, count, track=True)
     return _table(start, *rows)
 
@@ -44,22 +43,15 @@ def closed(faces, count):
     """Whether every undirected edge of ``faces`` (parameters as :func:`edge_table`) has
     exactly two of them (watertight), found without the edge table: 4 bytes a directed
     edge beside the faces."""
-    faces = _as_faces(faces)
-    if len(faces) == 0:
-        return False
-    (high, _), start = _grouped(faces, max(int(count), 1), track=False)
-    return bool(_all_pairs(start, high))
-
-
-def _as_faces(faces):
-    faces = np.asarray(faces)
-    return faces if faces.dtype == np.int64 else faces.astype(np.int64)
+    (high, _), start = _grouped(faces, count, track=False)
+    return len(high) > 0 and bool(_all_pairs(start, high))
 
 
 def _grouped(faces, count, track):
     """``((high, edge), start)``: the directed edges grouped by their low end (group v
     is ``start[v]:start[v + 1]``) and sorted by their high end within it; with
     ``track``, the directed edge each came from (else ``edge`` is empty)."""
+    faces, count = np.asarray(faces, np.int64), max(int(count), 1)
     m = 3 * len(faces)
     # int32 where they fit: these two are most of the memory this takes
     high = np.empty(m, np.int32 if count < 2**31 else np.int64)
