@@ -7,17 +7,17 @@ OUT    ?= out/demo
 
 .PHONY: demo test bench clean chromium consumers
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml setup.py
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet --upgrade pip 'setuptools>=77' wheel
 	$(PY) -m pip install --quiet -e '.[test,bench]'
 	touch $(STAMP)
 
-# numba keys a cached kernel by its own file only: when any source is newer than the
-# cache, drop every cached kernel, so none keeps a stale copy of another module's function
+# the compiled kernels, built again whenever a C source changes (cadpipe.core.kernels
+# refuses to run kernels built from other sources)
 KERNELS := $(VENV)/.kernels-stamp
-$(KERNELS): $(STAMP) $(shell find cadpipe -name '*.py')
-	find cadpipe -name '*.nbi' -delete -o -name '*.nbc' -delete
+$(KERNELS): $(STAMP) $(wildcard cadpipe/core/csrc/*)
+	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $@
 
 demo: $(STAMP) $(KERNELS)

@@ -1,4 +1,4 @@
-"""Do cadpipe._vec's choices pay? Each helper against numpy's own spelling, both layouts.
+"""Do cadpipe.core.vec's choices pay? Each helper against numpy's own spelling, both layouts.
 
 For N = 100,000 vectors in the component-first ``(3, N)`` layout the batch code
 uses and in the row ``(N, 3)`` layout, times (interleaved A B A B, median of
@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from cadpipe._vec import cross, dot, norm
+from cadpipe.core.vec import cross, dot, norm
 
 N, REPEAT = 100_000, 41
 

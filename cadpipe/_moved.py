@@ -48,7 +48,7 @@ OLD_PATHS = {
     "cadpipe.registry": "cadpipe.io.registry",
     "cadpipe.scene": "cadpipe.io.scene",
     "cadpipe.spec": "cadpipe.io.spec",
-    "cadpipe.transform": "cadpipe.solids.transform",
+    "cadpipe.transform": "cadpipe.core.transform",
     "cadpipe.tubes": "cadpipe.geometry.rings",
 }
 

@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import Assembly, HollowPipe, Pipe, primitives
-from cadpipe.solids.transform import placement
+from cadpipe.core.transform import placement
 
 directions = st.tuples(*[st.floats(-1, 1)] * 3).filter(lambda v: np.linalg.norm(v) > 0.2)
 

@@ -359,7 +359,7 @@ def test_pipe_normals_from_its_rings_are_the_tube_surface_normals():
     np.testing.assert_array_equal(np.sort(shading.corners),
                                   np.sort(shading_normals(general).corners))
     # moved, relabelled: the same layout, the normals turned with the mesh
-    turn = cadpipe.solids.transform.as_matrix(np.array([[0.0, -1, 0, 1], [1, 0, 0, 2],
+    turn = cadpipe.core.transform.as_matrix(np.array([[0.0, -1, 0, 1], [1, 0, 0, 2],
                                                         [0, 0, 1, 3], [0, 0, 0, 1]]))
     moved = mesh.transformed(turn).with_parts(["helix"])
     assert moved.ring_runs is not None

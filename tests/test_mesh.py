@@ -169,7 +169,7 @@ def test_a_mesh_pickles_to_another_process_as_it_is():
 def test_bounds_are_the_least_and_greatest_coordinates(points, single):
     # one compiled pass (Mesh.bounds, the USD extent, the GLB accessors' min/max) against
     # numpy's reductions, exactly, in the points' own dtype
-    from cadpipe._vec import bounds
+    from cadpipe.core.vec import bounds
 
     array = np.array(points, np.float32 if single else np.float64)
     found = bounds(array)

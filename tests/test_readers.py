@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import cadpipe
-from cadpipe._rows import unique_points
+from cadpipe.core.weld import unique_points
 from cadpipe.errors import CadpipeError, LimitError, MeshError
 from cadpipe.io.files import export, load_scene
 from cadpipe.io.scene import Scene, ScenePart

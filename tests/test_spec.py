@@ -15,7 +15,7 @@ from cadpipe.io.scene import meters_per_unit
 from cadpipe import HollowChain, HollowPipe, Junction, Pipe, primitives
 from cadpipe.cli import main
 from cadpipe.io.spec import read
-from cadpipe.solids.transform import placement
+from cadpipe.core.transform import placement
 
 EXAMPLES = FilePath(__file__).parent.parent / "assets" / "examples"
 

@@ -22,7 +22,7 @@ from functools import cached_property
 import numba
 import numpy as np
 
-from cadpipe._vec import dot
+from cadpipe.core.vec import dot
 
 # -- points against units -------------------------------------------------------
 @numba.njit(cache=True, nogil=True)

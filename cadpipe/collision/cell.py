@@ -10,7 +10,7 @@ from cadpipe.solids.booleans import carve
 from cadpipe.geometry.pipe import Pipe
 from cadpipe.errors import CadpipeError
 from cadpipe.io.spec import Spec, read
-from cadpipe.solids.transform import is_rigid
+from cadpipe.core.transform import is_rigid
 from cadpipe.collision.world import CollisionWorld
 
 

@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike
 
 from cadpipe import _deprecated
 from cadpipe.errors import InputError
-from cadpipe.solids.transform import _problem as rigid_problem, as_matrix
+from cadpipe.core.transform import _problem as rigid_problem, as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow

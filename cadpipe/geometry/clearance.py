@@ -25,7 +25,7 @@ from functools import partial
 import numpy as np
 
 from cadpipe import limits
-from cadpipe._vec import dot, norm
+from cadpipe.core.vec import dot, norm
 
 #: findings described per tube and kind of fold
 MAX_FINDINGS = 10

@@ -24,7 +24,7 @@ undefined (OP parallel to the tangent) or turns a ring by more than
 
 import numpy as np
 
-from cadpipe._vec import cross, dot, norm
+from cadpipe.core.vec import cross, dot, norm
 from cadpipe.errors import InputError
 from cadpipe.geometry.ragged import blocks
 

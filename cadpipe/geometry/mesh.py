@@ -19,11 +19,11 @@ from numpy.typing import ArrayLike
 
 from cadpipe import _deprecated
 from cadpipe._validate import as_points
-from cadpipe._vec import bounds, cross
+from cadpipe.core.vec import bounds, cross
 from cadpipe.errors import InputError, MeshError
 from cadpipe.geometry.topology import closed, connected_labels, edge_table
 from cadpipe.geometry.winding import WindingTree
-from cadpipe.solids.transform import as_matrix
+from cadpipe.core.transform import as_matrix
 
 
 def winding_numbers(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -499,7 +499,7 @@ class Mesh:
         Parameters
         ----------
         matrix : (4, 4) array_like
-            Affine placement (see :func:`cadpipe.solids.transform.as_matrix`).
+            Affine placement (see :func:`cadpipe.core.transform.as_matrix`).
 
         Returns
         -------

@@ -20,10 +20,10 @@ from numpy.typing import ArrayLike
 from cadpipe import limits
 from cadpipe import _deprecated
 from cadpipe._validate import as_points, as_positive
-from cadpipe._vec import cross, dot, norm, unit
+from cadpipe.core.vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.ragged import Groups, blocks
-from cadpipe.solids.transform import as_matrix
+from cadpipe.core.transform import as_matrix
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9

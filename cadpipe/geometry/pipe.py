@@ -17,7 +17,7 @@ import numpy as np
 
 from cadpipe import _deprecated, limits
 from cadpipe._validate import as_choice, as_int, as_positive
-from cadpipe._vec import cross
+from cadpipe.core.vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
 from cadpipe.geometry.loft import Surface, write_fan

@@ -11,7 +11,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from cadpipe.geometry import buffers, clearance
-from cadpipe._vec import cross, dot
+from cadpipe.core.vec import cross, dot
 from cadpipe.geometry.frames import frames
 from cadpipe.geometry.path import REVERSAL
 from cadpipe.geometry.ragged import blocks

@@ -20,7 +20,7 @@ import numpy as np
 
 from cadpipe import limits
 from cadpipe._validate import as_choice, as_flag
-from cadpipe._vec import norm
+from cadpipe.core.vec import norm
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
 from cadpipe.geometry.mesh import Mesh

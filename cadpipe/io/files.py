@@ -20,10 +20,10 @@ from dataclasses import replace
 from pathlib import Path as FilePath
 from types import MappingProxyType
 
-import numba
 import numpy as np
 
-from cadpipe._rows import unique_points
+from cadpipe.core.kernels import native
+from cadpipe.core.weld import renumbered, unique_points
 from cadpipe.errors import ExportError, InputError, MeshError
 from cadpipe.io.registry import exporters
 
@@ -265,65 +265,25 @@ def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), att
             faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
         raise MeshError(f"expected (N, 3) points and (F, 3) vertex indices, got shapes "
                         f"{vertices.shape} and {faces.shape}", file=path, part=name)
-    if not _within(vertices.reshape(-1), MAX_MAGNITUDE):
+    if not native.within(np.ascontiguousarray(vertices).reshape(-1), MAX_MAGNITUDE):
         raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
                         f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
     faces = faces.astype(np.int64, copy=False)
-    low, high = _index_range(faces.reshape(-1))
+    faces = np.ascontiguousarray(faces)
+    low, high = native.index_range(faces.reshape(-1))
     if faces.size and (low < 0 or high >= len(vertices)):
         raise MeshError(f"face indices must lie in [0, {len(vertices) - 1}], got "
                         f"[{low}, {high}]", key="faces", file=path, part=name)
     if face_part is not None:
         face_part = np.asarray(face_part).astype(np.int32, copy=False)
-        low, high = _index_range(face_part)
+        face_part = np.ascontiguousarray(face_part)
+        low, high = native.index_range(face_part)
         if face_part.shape != (len(faces),) or (len(faces) and (
                 low < 0 or high >= len(part_names))):
             raise MeshError("face labels must point into the part names", key="face_part",
                             file=path, part=name)
     return Mesh.trusted(vertices, faces, face_part=face_part, part_names=part_names,
                         attributes=attributes)
-
-
-@numba.njit(cache=True, nogil=True)
-def _within(values, bound):
-    """True when every value is a number no larger than ``bound`` in magnitude (NaN is not)."""
-    for value in values:
-        if not abs(value) <= bound:
-            return False
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _index_range(values):
-    """(least, greatest) of integer ``values`` ((0, -1) for none), in one pass."""
-    low, high = 0, -1
-    if len(values):
-        low = high = values[0]
-    for value in values:
-        low, high = min(low, value), max(high, value)
-    return low, high
-
-
-def placed_points(points, matrix):
-    """(N, 3) float ``points`` (any strides) moved by the 4x4 ``matrix`` as float64 (the
-    points themselves for the identity), in one compiled pass: numpy's ``points @ M.T``
-    goes through BLAS, whose threads spin on a busy machine (0.2 s of CPU for 500,000
-    points at a load of 10, against 4 ms in one thread)."""
-    matrix = np.asarray(matrix, dtype=np.float64)
-    if np.array_equal(matrix, np.eye(4)):
-        return points
-    out = np.empty((len(points), 3))
-    _place(points if points.dtype in (np.float32, np.float64) else points.astype(float),
-           matrix, out)
-    return out
-
-
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def _place(points, matrix, out):
-    for k in range(len(points)):
-        x, y, z = points[k, 0], points[k, 1], points[k, 2]
-        for r in range(3):
-            out[k, r] = matrix[r, 0] * x + matrix[r, 1] * y + matrix[r, 2] * z + matrix[r, 3]
 
 
 def welded(mesh):
@@ -340,25 +300,12 @@ def welded(mesh):
     first, inverse = unique_points(rows, 8)
     if len(first) == len(rows):
         return mesh
-    faces = np.empty_like(mesh.faces)
-    _renumber(mesh.faces.reshape(-1), inverse, faces.reshape(-1))
+    faces = renumbered(mesh.faces, inverse)
     # the first-seen points are often the leading rows (a GLB's crease copies come last):
     # then they are a view, not a copy
     kept = rows[:len(first)] if first[-1] == len(first) - 1 else rows[first]
     return Mesh.trusted(kept, faces, face_part=mesh.face_part,
                         part_names=mesh.part_names, attributes=mesh.attributes)
-
-
-@numba.njit(cache=True, nogil=True)
-def _renumber(corners, inverse, out):
-    """``out = inverse[corners]``, reading ``inverse`` only past its identity prefix (the
-    copies a writer split off are mostly at the end: a GLB's crease vertices)."""
-    same = 0
-    while same < len(inverse) and inverse[same] == same:
-        same += 1
-    for c in range(len(corners)):
-        v = corners[c]
-        out[c] = v if v < same else inverse[v]
 
 
 def _trimesh_scene(path, key):

@@ -26,9 +26,10 @@ from types import MappingProxyType
 import numpy as np
 
 from cadpipe import limits
-from cadpipe._vec import bounds as point_bounds
+from cadpipe.core.vec import bounds as point_bounds
 from cadpipe.errors import CadpipeError, InputError, MeshError, shown
-from cadpipe.io.files import atomic_path, file_mesh, placed_points, unique_name
+from cadpipe.core.transform import placed_points
+from cadpipe.io.files import atomic_path, file_mesh, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import DEFAULT_CREASE_ANGLE, split_for_normals
 from cadpipe.io.scene import TO_Y_UP, as_scene

@@ -36,7 +36,7 @@ import numpy as np
 from cadpipe import limits
 from cadpipe._validate import as_choice, as_input_file
 from cadpipe.errors import CadpipeError, InputError, LimitError, SpecError, shown
-from cadpipe.solids.transform import as_matrix, placement
+from cadpipe.core.transform import as_matrix, placement
 
 if typing.TYPE_CHECKING:
     from cadpipe.solids.assembly import Assembly
@@ -376,7 +376,7 @@ def _robot(ctx, *, urdf: str, srdf: str | None = None, joints: list | dict | Non
            color: str | list | None = None):
     """``[robot]``: a URDF arm posed by ``joints`` on a rigid base ``transform``."""
     from cadpipe.collision.robot import Robot
-    from cadpipe.solids.transform import is_rigid
+    from cadpipe.core.transform import is_rigid
 
     files = {"urdf": ctx.file_path(urdf, "urdf"),
              "srdf": None if srdf is None else ctx.file_path(srdf, "srdf")}

@@ -39,7 +39,8 @@ from cadpipe import limits
 from cadpipe.errors import InputError, MeshError, shown
 from cadpipe.geometry.mesh import merge_tables
 from cadpipe.io.scene import as_scene
-from cadpipe.io.files import atomic_path, file_mesh, placed_points, unique_name
+from cadpipe.core.transform import placed_points
+from cadpipe.io.files import atomic_path, file_mesh, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.text import ascii_rows, float32_columns
 

@@ -38,7 +38,7 @@ from cadpipe.solids.booleans import (as_solid, bounding_boxes, clusters, combine
 from cadpipe.errors import CadpipeError, GeometryError, InputError
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.io.scene import UNITS, Scene, ScenePart, meters_per_unit, parse_color
-from cadpipe.solids.transform import as_matrix
+from cadpipe.core.transform import as_matrix
 
 OPERATIONS = ("add", "subtract", "intersect")
 
@@ -51,7 +51,7 @@ _PART_ARGUMENTS = """
     obj : Mesh, Pipe, HollowPipe, HollowChain or Junction
         A closed solid (a primitive, a loaded file) or a part that makes one.
     transform : (4, 4) array_like, optional
-        Placement of ``obj`` (see :func:`cadpipe.solids.transform.placement`).
+        Placement of ``obj`` (see :func:`cadpipe.core.transform.placement`).
     color : str or (3,) float, optional
         ``"#rrggbb"`` or three numbers in [0, 1].
 
