@@ -48,7 +48,7 @@ import numpy as np
 
 import cadpipe
 from cadpipe.geometry.topology import edge_table
-from cadpipe.io.files import export, load_mesh
+from cadpipe.core.formats import export, load_mesh
 from cadpipe.io.normals import shading_normals
 from cadpipe.solids.intersect import self_intersections
 from cadpipe.solids.validity import check_mesh

@@ -10,7 +10,8 @@ renamed name warns for one release). The subpackages' other modules are the
 layout of the implementation (see docs/architecture.md) and may change.
 """
 
-from cadpipe import _moved, batch, limits  # noqa: F401  (cadpipe.batch.run, cadpipe.limits)
+from cadpipe import batch, io, limits  # noqa: F401  (cadpipe.batch.run, cadpipe.limits;
+#                                                        io registers the file formats)
 from cadpipe.collision import CollisionWorld
 from cadpipe.errors import (CadpipeError, ExportError, GeometryError, InputError, LimitError,
                             MeshError, SpecError)
@@ -18,7 +19,7 @@ from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pipe import Pipe
 from cadpipe.geometry.splice import splice
-from cadpipe.io.spec import load
+from cadpipe.spec import load
 from cadpipe.solids import primitives  # noqa: F401  (cadpipe.primitives.box, ...)
 from cadpipe.solids.assembly import Assembly
 from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
@@ -32,4 +33,3 @@ __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "In
 __all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "LimitError", "batch", "limits",
             "load"]
 
-_moved.install()

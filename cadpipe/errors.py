@@ -27,7 +27,9 @@ import re
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
 
 
-def _escape(text: str) -> str:
+def one_line(text: str) -> str:
+    """``text`` with control characters (newlines, NUL, ...) written as escapes: one line,
+    safe to print."""
     return _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
 
 
@@ -115,7 +117,7 @@ class CadpipeError(Exception):
         part = None if self._part_located or self.part is None else self.part
         where = [w for w in (self.file, part, self.key) if w]
         message = "; ".join(m for m in (self.message, self.advice()) if m)
-        return _escape(": ".join([*where, message]))
+        return one_line(": ".join([*where, message]))
 
     def __reduce__(self):
         """Pickle with the fields (errors travel back from worker processes)."""

@@ -245,7 +245,8 @@ def fin(pipe, width):
 def frames_figure(path):
     """Rotation-minimizing vs patent frames on a helix beside the origin, rendered by cadpipe."""
     from cadpipe.io.preview import render_png
-    from cadpipe.io.scene import Scene, ScenePart, parse_color
+    from cadpipe.core.color import parse_color
+    from cadpipe.solids.scene import Scene, ScenePart
 
     t = np.linspace(0.0, 4 * np.pi, 240)
     helix = cadpipe.Path(np.column_stack([0.5 * np.cos(t) + 0.8, 0.5 * np.sin(t), 0.15 * t]))
@@ -329,7 +330,8 @@ def certificate_figures(svg_path, png_path):
     """The separating chain for :func:`hooks` and the pipes it separates, seen from above."""
     from cadpipe.collision.certificate_svg import COLOURS
     from cadpipe.io.preview import render_png
-    from cadpipe.io.scene import Scene, ScenePart, parse_color
+    from cadpipe.core.color import parse_color
+    from cadpipe.solids.scene import Scene, ScenePart
 
     pipes = hooks()
     world = cadpipe.CollisionWorld()

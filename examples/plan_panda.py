@@ -64,7 +64,7 @@ def main(out=None):
 
         out = FilePath(out)
         out.mkdir(parents=True, exist_ok=True)
-        tcp = Path.from_trajectory(robot, path, frame="panda_hand_tcp", step=0.01)
+        tcp = robot.frame_path(path, frame="panda_hand_tcp", step=0.01)
         # envelope=True: the polygon's flats at the radius, so the pipe holds every
         # point within 0.06 - 0.01 / 2 of the hand's true motion
         pipe = Pipe(tcp, radius=0.06, envelope=True)

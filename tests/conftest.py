@@ -20,7 +20,7 @@ def pytest_addoption(parser):
 def two_part_scene():
     """A millimetre scene of two coloured parts, one moved by its transform."""
     import cadpipe
-    from cadpipe.io.scene import Scene, ScenePart
+    from cadpipe.solids.scene import Scene, ScenePart
 
     duct = cadpipe.Pipe(cadpipe.Path.spline([[0, 0, 0], [40, 0, 10], [60, 30, 20]], step=2),
                         4, sides=16).mesh()

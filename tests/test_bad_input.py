@@ -51,9 +51,9 @@ def pipe_case(id, error, message, path=LINE, radius=0.1, sides=16, **options):
 
 
 def spec_case(id, message, text, files=None, name="spec.toml", command="build"):
-    """A spec file that :func:`cadpipe.io.spec.read` refuses with a SpecError."""
+    """A spec file that :func:`cadpipe.spec.read` refuses with a SpecError."""
     argv = (command, "{}/" + name) + (("-o", "{}/" + OUT) if command == "build" else ())
-    return Case(id, SpecError, message, lambda folder: cadpipe.io.spec.read(folder / name),
+    return Case(id, SpecError, message, lambda folder: cadpipe.spec.read(folder / name),
                 argv, {name: text, **(files or {})})
 
 

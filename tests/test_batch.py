@@ -10,7 +10,7 @@ from cadpipe import Path, Pipe, splice
 from cadpipe.geometry.clearance import (RIGHT_ANGLE, _units_meet, distant_pairs, reach,
                                        segment_distance)
 from cadpipe.geometry.loft import Surface
-from cadpipe.geometry.pipe import tubes_of
+from cadpipe.geometry.surfaces import tubes_of
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import ring_basis
 

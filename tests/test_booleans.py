@@ -9,7 +9,8 @@ from hypothesis.extra.numpy import arrays
 
 import cadpipe
 from cadpipe.solids import primitives
-from cadpipe.solids.booleans import as_solid, combine, overlap_pairs, reserve_ids
+from cadpipe.geometry.mesh import reserve_ids
+from cadpipe.solids.booleans import as_solid, combine, overlap_pairs
 
 
 def solids(*meshes):

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe.cli import main
-from cadpipe.io.files import export, load_mesh
+from cadpipe.core.formats import export, load_mesh
 from cadpipe.io.text import float32_decimal
 from cadpipe.solids.intersect import box_pairs, float32_coordinates, self_intersections
 

@@ -12,8 +12,8 @@ import trimesh
 
 from cadpipe import Pipe, SpecError
 from cadpipe.cli import main
-from cadpipe.collision import world_from_spec
-from cadpipe.io.spec import read
+from cadpipe.spec import world_from_spec
+from cadpipe.spec import read
 
 ROOT = FilePath(__file__).parent.parent
 EXAMPLE = ROOT / "assets" / "examples" / "robot_cell.toml"

@@ -20,10 +20,10 @@ from scipy.spatial import cKDTree
 import cadpipe
 from cadpipe.cli import main
 from cadpipe.cli.welding_cell import build_cell, run_demo
-from cadpipe.io.files import export, load_scene
+from cadpipe.core.formats import export, load_scene
 from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import shading_normals
-from cadpipe.io.scene import as_scene
+from cadpipe.solids.scene import as_scene
 
 ROOT = FilePath(__file__).resolve().parent.parent
 EXAMPLES = sorted(p for p in (ROOT / "assets" / "examples").iterdir()
@@ -365,7 +365,7 @@ def test_blender_shows_the_demo_parts_named_coloured_at_size_and_shaded(demo, tm
 
 
 def test_blender_shows_each_example_named_coloured_at_size_and_shaded(example, tmp_path):
-    from cadpipe.io.spec import read
+    from cadpipe.spec import read
 
     folder, stem = example
     scene = read(ROOT / "assets" / "examples" / f"{stem}{SPEC_SUFFIX[stem]}").assembly \

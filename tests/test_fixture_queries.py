@@ -147,7 +147,7 @@ def test_trajectory_path_follows_the_motion_within_half_a_step(panda, point):
     """Of the frame's origin, or of a point fixed in the frame (a tool centre point 0.45
     from the origin: the wrist's turns move it faster than the origin)."""
     step = 0.01
-    path = Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=step,
+    path = panda.frame_path(WAYPOINTS, frame="panda_hand_tcp", step=step,
                                 point=point)
     t = np.linspace(0.0, 1.0, 3001)
     dense = np.concatenate([a + t[:, None] * (b - a) for a, b in
@@ -164,11 +164,11 @@ def test_trajectory_path_follows_the_motion_within_half_a_step(panda, point):
     mesh = Pipe(path, radius=0.05).mesh()
     assert mesh.is_watertight and mesh.volume > 0
     with pytest.raises(InputError, match="step"):
-        Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=0)
+        panda.frame_path(WAYPOINTS, frame="panda_hand_tcp", step=0)
     with pytest.raises(InputError, match="no such link"):
-        Path.from_trajectory(panda, WAYPOINTS, frame="tool0", step=0.01)
+        panda.frame_path(WAYPOINTS, frame="tool0", step=0.01)
     with pytest.raises(InputError, match="point") as caught:
-        Path.from_trajectory(panda, WAYPOINTS, frame="panda_hand_tcp", step=0.01,
+        panda.frame_path(WAYPOINTS, frame="panda_hand_tcp", step=0.01,
                              point=(0, 1))
     assert caught.value.key == "point"
 
@@ -189,7 +189,7 @@ def test_a_safety_pipe_holds_the_motion_however_tight_the_wrist_turns(panda):
     for _ in range(2):
         q = rng.uniform(lo, hi, (3, len(lo)))
         q[:, :4] = q[0, :4]
-        path = Path.from_trajectory(panda, q, frame="panda_hand_tcp", step=step)
+        path = panda.frame_path(q, frame="panda_hand_tcp", step=step)
         mesh = Pipe(path, radius=radius, envelope=True, sides=12).mesh()
         assert check_mesh(mesh)["valid"], check_mesh(mesh)["problems"]
         t = np.linspace(0.0, 1.0, 2001)

@@ -10,7 +10,7 @@ import pytest
 
 import cadpipe
 from cadpipe.errors import CadpipeError
-from cadpipe.io.files import load_mesh
+from cadpipe.core.formats import load_mesh
 
 TETRA_FACES = "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n"
 
@@ -81,7 +81,7 @@ def _spec(folder, text, name="s.toml"):
 
 
 def _read(folder, text, **options):
-    from cadpipe.io.spec import read
+    from cadpipe.spec import read
 
     return read(_spec(folder, text), **options)
 

@@ -278,7 +278,8 @@ if sys.argv[1] == "no-entry-points":
     real = metadata.entry_points                  # a source tree that was never installed:
     metadata.entry_points = lambda **kw: [] if kw.get("group", "").startswith("cadpipe") \
         else real(**kw)                           # no cadpipe plugins (numba still asks)
-from cadpipe.io.registry import exporters, part_kinds
+from cadpipe.core.formats import writers as exporters
+from cadpipe.spec import part_kinds
 barrier, found = threading.Barrier(6), []
 def look():
     barrier.wait()

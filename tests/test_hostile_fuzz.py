@@ -125,7 +125,7 @@ def _pipe_args(rng, hostile):
             "corners": str(rng.choice(["miter", "miter", "round"])),
             "envelope": bool(rng.integers(2))}
     if hostile:
-        key = str(rng.choice(["path", "radius", "sides", "caps", "miter_limit", "bend_radius"]))
+        key = str(rng.choice(["path", "radius", "sides", "caps", "miter_limit", "cap_segments"]))
         value = HOSTILE_NUMBERS[int(rng.integers(len(HOSTILE_NUMBERS)))]
         if key == "path":
             points = points.copy()

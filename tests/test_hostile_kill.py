@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import cadpipe
-from cadpipe.io.files import load_mesh
+from cadpipe.core.formats import load_mesh
 
 KILLS = 8                       # per format
 WRITER = """

@@ -9,7 +9,7 @@ import pytest
 
 from cadpipe import limits
 from cadpipe.errors import InputError, LimitError, SpecError
-from cadpipe.io.spec import read
+from cadpipe.spec import read
 
 SPHERE = '[[parts]]\nkind = "sphere"\nradius = 1\nsegments = 64\n'     # 2,048 triangles
 

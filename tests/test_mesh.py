@@ -102,22 +102,15 @@ def test_edges_agree_with_trimesh(tube):
     assert np.array_equal(rows, tube.edges_unique_inverse)
 
 
-def test_renamed_names_still_work_with_a_warning(tube):
-    import manifold3d
-
+def test_part_labels_and_attributes_are_read_only_values(tube):
     solid = tube.to_manifold().as_original()
-    with pytest.warns(DeprecationWarning, match="part_of_id"):
-        old = Mesh.from_manifold(solid, part_names={solid.original_id(): "tube"})
-    assert old.part_names == ("tube",)
+    labelled = Mesh.from_manifold(solid, part_of_id={solid.original_id(): "tube"})
+    assert labelled.part_names == ("tube",)
     pipe = Pipe([[0, 0, 0], [1, 0, 0]], 0.2, sides=6)
     assert pipe.attributes["sides"] == 6
-    with pytest.warns(DeprecationWarning, match="attributes"):
-        assert pipe.attributes()["sides"] == 6
-    with pytest.warns(DeprecationWarning, match="convex_pieces"):
-        assert len(pipe.units()) == len(pipe.convex_pieces())
-    with pytest.warns(DeprecationWarning, match="self_intersection_findings"):
-        assert pipe.self_intersections() == pipe.self_intersection_findings() == []
-    assert isinstance(solid, manifold3d.Manifold)
+    with pytest.raises(TypeError):
+        pipe.attributes["sides"] = 7
+    assert pipe.self_intersection_findings() == []
 
 
 @pytest.mark.parametrize("corner", ["{v}/{t}/{n}", "{v}//{n}", "{v}/{t}", "{v}"])

@@ -103,10 +103,7 @@ def test_a_reversal_has_a_tangent_across_the_path():
 
 def test_fillet_and_trimmed_return_paths_like_resample():
     corner = Path([[0, 0, 0], [1, 0, 0], [1, 1, 0]])
-    with pytest.warns(DeprecationWarning, match="filleted"):
-        old_path, old_source = corner.fillet(0.25)
-    assert np.array_equal(old_path.points, corner.filleted(0.25).points)
-    assert np.array_equal(old_source, corner.fillet_sources(0.25))
+    assert len(corner.fillet_sources(0.25)) == len(corner.filleted(0.25))
     piece = corner.trimmed(0.3, 0.2)
     assert isinstance(piece, Path) and isinstance(corner.resample(0.1), Path)
     # the documented arc-length relation: point i sits at start + arc_length[i]

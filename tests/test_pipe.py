@@ -105,10 +105,9 @@ def test_miter_corner_keeps_full_radius():
     assert mesh.volume == pytest.approx(ngon_area(r, 16) * 2.0, rel=1e-9)
 
 
-def test_bend_radius_is_deprecated_for_a_filleted_path():
-    with pytest.warns(DeprecationWarning, match="filleted"):
-        pipe = Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0]], 0.1, sides=12, corners="round",
-                    bend_radius=0.3)
+def test_a_filleted_path_bends_the_pipe_in_arcs():
+    path = Path([[0, 0, 0], [1, 0, 0], [1, 1, 0]]).filleted(0.3)
+    pipe = Pipe(path, 0.1, sides=12, corners="round")
     assert_solid(pipe.mesh())
     assert len(pipe.path) > 3
     assert pipe.path.turning_angles.max() < np.radians(6)
@@ -216,11 +215,6 @@ def test_distant_self_intersection_and_repair():
     mesh = Pipe(crossing, 0.2).mesh()
     assert_solid(mesh)
     assert "path points 0..1" in mesh.attributes["merged"]
-    with pytest.warns(DeprecationWarning, match="strict"):
-        old = Pipe(crossing, 0.2, repair=True)
-    assert not old.strict and old.mesh().volume == pytest.approx(mesh.volume)
-    with pytest.warns(DeprecationWarning):
-        assert Pipe(crossing, 0.2, repair=False).strict
 
 
 @pytest.mark.parametrize("kwargs, word", [
@@ -262,10 +256,9 @@ def test_radius_below_the_path_resolution_or_too_thin_to_check_is_refused():
         Pipe([[0, 0, 0], [1, 0, 0]], 1e-7).mesh()
 
 
-def test_fillets_that_consume_a_segment_keep_per_point_radii():
+def test_fillets_that_consume_a_segment_make_a_pipe():
     """0.1: a numpy broadcast ValueError when two arcs used up the segment between them."""
     points = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [2, 1, 0]]
-    with pytest.warns(DeprecationWarning):
-        pipe = Pipe(points, [0.1, 0.1, 0.12, 0.1], 8, bend_radius=0.5)
+    pipe = Pipe(Path(points).filleted(0.5), 0.1, 8)
     assert pipe.radii.shape == (len(pipe.path),)
     assert_solid(pipe.mesh())

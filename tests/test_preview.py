@@ -13,7 +13,7 @@ from PIL import Image
 from cadpipe import ExportError, InputError, Mesh, Path, Pipe
 from cadpipe.cli import main
 from cadpipe.io.preview import HIGHLIGHT, PALETTE, render_png, write_html
-from cadpipe.io.scene import Scene, ScenePart
+from cadpipe.solids.scene import Scene, ScenePart
 
 SIZE = (320, 240)
 TEAL = (0.15, 0.6, 0.5)

@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 import cadpipe
 from cadpipe.core.weld import unique_points
 from cadpipe.errors import CadpipeError, LimitError, MeshError
-from cadpipe.io.files import export, load_scene
-from cadpipe.io.scene import Scene, ScenePart
+from cadpipe.core.formats import export, load_scene
+from cadpipe.solids.scene import Scene, ScenePart
 from cadpipe.io.threemf import read_3mf
 
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import cadpipe
-from cadpipe.io.scene import meters_per_unit
+from cadpipe.core.units import meters_per_unit
 from cadpipe import HollowChain, HollowPipe, Junction, Pipe, primitives
 from cadpipe.cli import main
-from cadpipe.io.spec import read
+from cadpipe.spec import read
 from cadpipe.core.transform import placement
 
 EXAMPLES = FilePath(__file__).parent.parent / "assets" / "examples"
@@ -202,7 +202,7 @@ def test_group_kinds_take_every_pipe_key_as_a_default(tmp_path):
     default for its pipes (a table overrides it), and an unknown one is refused."""
     import inspect
 
-    from cadpipe.io import parts
+    from cadpipe.spec import parts
 
     pipe_keys = set(inspect.signature(Pipe).parameters) - {"path"}
     for kind in (parts.junction, parts.chain):
@@ -378,7 +378,7 @@ def test_loading_a_spec_runs_no_code(tmp_path):
 
 PLUGIN = '''
 from cadpipe.solids import primitives
-from cadpipe.io.spec import Number
+from cadpipe.spec import Number
 
 
 def tetra(ctx, *, edge: Number = 1.0):

@@ -248,14 +248,6 @@ def test_an_end_cap_reaching_another_stretch_is_merged(kwargs):
     assert solid_problems(pipe.mesh()) == []
 
 
-def test_repair_is_deprecated_for_strict():
-    crossing = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [1, 2, 0], [1, -1, 0.1]])
-    with pytest.warns(DeprecationWarning, match="strict=True"):
-        assert Pipe(crossing, 0.2, repair=False).strict
-    with pytest.warns(DeprecationWarning, match="strict=True"):
-        assert not Pipe(crossing, 0.2, repair=True).strict
-
-
 def test_strict_is_a_spec_key(tmp_path):
     crossing = [[0, 0, 0], [2, 0, 0], [2, 2, 0], [1, 2, 0], [1, -1, 0.1]]
     spec = tmp_path / "s.json"

@@ -58,9 +58,6 @@ def test_junction_takes_its_pipes_as_arguments_like_splice():
     run, branch = run_and_branch()
     tee = Junction(run, branch)
     assert tee.pipes == (run, branch)
-    with pytest.warns(DeprecationWarning, match=r"Junction\(\*pipes"):
-        old = Junction([run, branch])
-    assert old.pipes == tee.pipes
     assert dataclasses.replace(tee, pipes=(run,)).pipes == (run,)
     with pytest.raises(dataclasses.FrozenInstanceError):
         tee.pipes = ()
@@ -74,9 +71,7 @@ def chain_pipes():
 def test_hollow_chain_takes_its_pipes_as_arguments_like_splice():
     pipes = chain_pipes()
     chain = HollowChain(*pipes, wall=0.02, ends="closed")
-    with pytest.warns(DeprecationWarning, match=r"HollowChain\(\*pipes"):
-        old = HollowChain(list(pipes), 0.02, "closed")
-    assert (old.pipes, old.wall, old.ends) == (chain.pipes, chain.wall, chain.ends)
+    assert (chain.pipes, chain.wall, chain.ends) == (pipes, 0.02, ("closed", "closed"))
     (outer,), _ = chain.solids()
     assert outer.volume == pytest.approx(splice(*pipes).volume, rel=1e-9)
     merged = chain.replace(transition="merge")

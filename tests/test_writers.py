@@ -12,8 +12,8 @@ import trimesh
 import cadpipe
 from cadpipe.cli import main
 from cadpipe.errors import InputError
-from cadpipe.io.files import export, load_scene
-from cadpipe.io.scene import Scene, ScenePart, laid_out_for_print
+from cadpipe.core.formats import export, load_scene
+from cadpipe.solids.scene import Scene, ScenePart, laid_out_for_print
 from cadpipe.solids.primitives import box
 from cadpipe.solids.validity import check_mesh
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from cadpipe.batch.params import check_names, csv_rows, fill, parameter_sets, placeholders
 from cadpipe.errors import CadpipeError, InputError, SpecError
-from cadpipe.io.spec import Number, SpecContext, _parse
+from cadpipe.spec import Number, SpecContext, parse
 
 KINDS = ("build", "trajectory")
 #: a job's name is its output folder's name
@@ -238,7 +238,7 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
     tolerance, margin = motion_settings(tolerance, margin or 0.0)
     made = _outputs(outputs) if outputs is not None else ()
     spec_bytes = source.read_bytes()
-    template = _parse(source)
+    template = parse(source)
     sets = parameter_sets(params, grid, csv_rows(ctx.file_path(rows, "rows"))
                           if isinstance(rows, str) else rows)
     used = placeholders(template) | placeholders(name or "")
@@ -283,18 +283,17 @@ def _trajectory_files(ctx, trajectory, trajectories):
 
 def _outputs(outputs):
     """The ``outputs`` of a spec job: plain file names with a known format."""
-    from cadpipe.io.files import suffix_of
-    from cadpipe.io.registry import exporters
+    from cadpipe.core.formats import writer_for
 
     names = []
     for i, entry in enumerate(outputs):
         if not isinstance(entry, str) or FilePath(entry).name != entry or entry in (".", ".."):
             raise InputError(f"expected a file name (no folder: files go into the job's "
                              f"folder), got {entry!r}", key=f"outputs[{i}]")
-        if suffix_of(entry) not in exporters:
-            raise InputError(f"unknown output format; supported: "
-                             f"{', '.join('.' + n for n in exporters.names())}",
-                             key=f"outputs[{i}]")
+        try:
+            writer_for(entry)
+        except InputError as exc:
+            raise InputError(exc.message, key=f"outputs[{i}]") from None
         names.append(entry)
     return tuple(names)
 
@@ -355,6 +354,6 @@ def read_jobs(source):
         raise SpecError("is a folder, not a JOBS file" if file.is_dir() else
                         "no such JOBS file", file=file)
     try:
-        return SpecContext(file).call(_jobs_table, _parse(file))
+        return SpecContext(file).call(_jobs_table, parse(file))
     except CadpipeError as exc:
         raise exc.at(file=file) from exc.__cause__

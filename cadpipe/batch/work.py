@@ -97,7 +97,7 @@ def _sizes(folder, names):
 # -- spec jobs --------------------------------------------------------------------------
 def build(job, folder):
     """Build a spec job's assembly and write its outputs; returns the record's fields."""
-    from cadpipe.io.spec import read
+    from cadpipe.spec import read
 
     spec = read(job.spec, data=job.table)
     targets = [(name, None, {}) for name in job.outputs] or \
@@ -122,8 +122,8 @@ def build(job, folder):
 def cell(spec_file, table):
     """``(world, posed robot, check options, link hull vertices)`` of a robot cell spec,
     built once per worker for the last few cells."""
-    from cadpipe.collision import world_from_spec
-    from cadpipe.io.spec import read
+    from cadpipe.spec import world_from_spec
+    from cadpipe.spec import read
 
     key = (str(spec_file), json.dumps(table, sort_keys=True))
     if key in _cells:

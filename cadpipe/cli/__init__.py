@@ -17,7 +17,7 @@ import os
 import sys
 import warnings
 
-from cadpipe.errors import CadpipeError, _escape
+from cadpipe.errors import CadpipeError, one_line
 
 COMMANDS = {}
 
@@ -34,7 +34,7 @@ def command(name, help, arguments):
 
 def budgets(args):
     """The limits set on the command line ({name: value}, only those given), as
-    :func:`cadpipe.limits.using` and :func:`cadpipe.io.spec.read` take them."""
+    :func:`cadpipe.limits.using` and :func:`cadpipe.spec.read` take them."""
     from cadpipe import limits
 
     given = {name: getattr(args, name, None) for name in limits.CLI_FLAGS}
@@ -100,7 +100,7 @@ def main(argv=None):
 
 def _line(text):
     """One line on stderr, whatever ``text`` holds."""
-    text = _escape(str(text))
+    text = one_line(str(text))
     try:
         print(text if len(text) <= 2000 else text[:1996] + " ...", file=sys.stderr, flush=True)
     except (OSError, ValueError):

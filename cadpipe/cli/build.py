@@ -27,8 +27,8 @@ from pathlib import Path as FilePath
 from cadpipe import limits
 from cadpipe.cli import budgets, command
 from cadpipe.errors import CadpipeError, InputError
-from cadpipe.io.files import LAYOUTS
-from cadpipe.io.scene import UNITS
+from cadpipe.solids.scene import LAYOUTS
+from cadpipe.core.units import UNITS
 
 
 def _arguments(parser):
@@ -54,7 +54,7 @@ def build(args):
     from rich.console import Console
 
     from cadpipe.io.files import ensure_folder
-    from cadpipe.io.spec import read
+    from cadpipe.spec import read
 
     with _Stages(args.quiet) as stage:
         stage(f"reading {FilePath(args.spec).name}", 0, 1)
@@ -91,7 +91,8 @@ def _summary(assembly, solid):
 def _outputs(args, spec):
     """``(path, mode, options)`` of each file to write: ``-o`` or the spec's outputs, their
     formats and options checked before any work, the command line's over the spec's."""
-    from cadpipe.io.files import check_target, exporters, suffix_of
+    from cadpipe.core.formats import writer_for
+    from cadpipe.io.files import check_target
     from cadpipe.solids.assembly import export_options
 
     given = {k: v for k, v in (("layout", args.layout), ("units", args.units)) if v}
@@ -101,9 +102,7 @@ def _outputs(args, spec):
         raise InputError("nothing to write; pass -o FILE or list outputs in the spec",
                          file=args.spec)
     for path, _, _ in outputs:
-        if suffix_of(path) not in exporters:
-            raise InputError("unknown output format; supported: "
-                             f"{', '.join('.' + n for n in exporters.names())}", file=path)
+        writer_for(path)                  # an unknown suffix: the formats there are
         check_target(path)
     return [(path, mode, export_options(path, {**options, **given}))
             for path, mode, options in outputs]

@@ -3,7 +3,7 @@
 import json
 
 from cadpipe.cli import command
-from cadpipe.io.files import load_scene
+from cadpipe.core.formats import load_scene
 from cadpipe.solids.validity import check_mesh
 
 #: extents (in the unit a unitless file is read in) that suggest another unit

@@ -21,9 +21,9 @@ def _safe(name):
 @command("collide", "Check the parts and robot of a spec file (TOML/JSON) for collisions.",
          _arguments)
 def collide(args):
-    from cadpipe.collision import world_from_spec
+    from cadpipe.spec import world_from_spec
     from cadpipe.io.files import ensure_folder
-    from cadpipe.io.spec import read
+    from cadpipe.spec import read
 
     spec = read(args.spec, **budgets(args))
     world, options = world_from_spec(spec), dict(spec.cell.check)

@@ -4,7 +4,8 @@ from dataclasses import replace
 from pathlib import Path as FilePath
 
 from cadpipe.cli import command
-from cadpipe.io.files import ensure_folder, load_scene
+from cadpipe.core.formats import load_scene
+from cadpipe.io.files import ensure_folder
 from cadpipe.io.preview import VIEWS, render_png, write_html
 
 

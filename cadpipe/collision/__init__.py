@@ -6,7 +6,6 @@ checked analytically as chains of round cones; robots come from URDF.
 """
 
 from cadpipe.collision.bodies import Box, Capsule, Sphere, Surface
-from cadpipe.collision.cell import world_from_spec
 from cadpipe.collision.certificate import Certificate
 from cadpipe.collision.fixture import PipeContainment
 from cadpipe.collision.robot import Joint, Robot, srdf_disabled_pairs
@@ -15,4 +14,4 @@ from cadpipe.collision.world import (STAGES, Clearance, CollisionReport, Collisi
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
            "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment",
-           "Robot", "Sphere", "Surface", "srdf_disabled_pairs", "world_from_spec"]
+           "Robot", "Sphere", "Surface", "srdf_disabled_pairs"]

@@ -256,6 +256,34 @@ class Robot:
                                        np.array([at], np.int64))[:, 0]
         return poses[0] if single else poses
 
+    def frame_path(self, configurations, frame, step, base=None, point=None):
+        """The :class:`~cadpipe.Path` of ``frame``'s origin (or of a ``point`` fixed in it)
+        over a joint trajectory, sampled so the polyline follows the motion within
+        ``step / 2``: the centreline of a tool's safety pipe.
+
+        Parameters
+        ----------
+        configurations : (C, A) array_like
+            Joint values along the trajectory, radians or metres.
+        frame : str
+            The link or frame whose origin is followed.
+        step : float
+            Largest deviation allowed, doubled, in metres.
+        base : (4, 4) array_like, optional
+            Placement of the robot's base.
+        point : (3,) array_like, optional
+            A point in ``frame``'s coordinates to follow instead of its origin (a
+            tool centre point).
+
+        Returns
+        -------
+        path : Path
+            See :func:`cadpipe.collision.trajectory.trajectory_points`.
+        """
+        from cadpipe.collision.trajectory import path_from_trajectory
+
+        return path_from_trajectory(self, configurations, frame, step, base, point)
+
     def link_poses_at(self, joints=None, base=None):
         """``(L, 4, 4)`` world poses of the links with geometry at one configuration
         (a sequence over :attr:`actuated`, a mapping by name, or None): the batch

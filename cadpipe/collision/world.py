@@ -44,7 +44,6 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cadpipe import _deprecated
 from cadpipe.errors import InputError
 from cadpipe.core.transform import _problem as rigid_problem, as_matrix
 from cadpipe.collision import bounds
@@ -410,9 +409,8 @@ class Scene:
     def allowed(self):
         """``(name_a, name_b, reason)`` for every allowed pair, in the objects' order
         (a list, as :attr:`CollisionReport.allowed`)."""
-        return _deprecated.Listing([(self._names[i], self._names[j], r)
-                                    for (i, j), r in sorted(self._allowed.items())],
-                                   "CollisionWorld.allowed")
+        return [(self._names[i], self._names[j], r)
+                for (i, j), r in sorted(self._allowed.items())]
 
     def add_robot(self, robot, joints=None, transform=None, group=None):
         """Add each link of a :class:`~cadpipe.collision.Robot` with geometry, posed by

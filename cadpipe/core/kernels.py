@@ -27,7 +27,7 @@ def source_hash(folder=SOURCES):
 
 
 try:
-    from cadpipe.core import _kernels as native
+    import cadpipe.core._kernels as native
 except ImportError as exc:               # a source tree whose extension was never built
     raise ImportError(f"cadpipe's compiled kernels are missing ({exc}); {REBUILD}") from None
 

@@ -12,7 +12,7 @@ inside every face plane of the outer bands it belongs to.
 
 import numpy as np
 
-from cadpipe.geometry.loft import _zipper_pattern
+from cadpipe.geometry.loft import zipper_pattern
 
 
 def band_planes(rings_a, rings_b, offset=0.0):
@@ -43,7 +43,7 @@ def band_planes(rings_a, rings_b, offset=0.0):
 
 def band_triangles(rings_a, rings_b, offset=0.0):
     """(B, na + nb, 3, 3) the faces between ring pairs, as :func:`band_planes` has them."""
-    pattern = _zipper_pattern(rings_a.shape[1], rings_b.shape[1], offset)
+    pattern = zipper_pattern(rings_a.shape[1], rings_b.shape[1], offset)
     return np.concatenate([rings_a, rings_b], axis=1)[:, pattern]
 
 

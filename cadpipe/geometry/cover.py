@@ -20,6 +20,9 @@ miter tip holds both; likewise before ``a``.
 
 import numpy as np
 
+from cadpipe.geometry.pieces import cap_piece, miter_tips
+from cadpipe.geometry.surfaces import ball_joint, cap_axes, joint_rows_of
+
 
 def round_cone_covers(points, a, b, ra, rb, tip_a, tip_b):
     """Round cones whose union holds the convex hull of each piece's points.
@@ -76,3 +79,84 @@ def _to_segments(points, start, vector):
     s = np.clip(s, 0.0, 1.0)
     off = rel - s[..., None] * vector[:, None]
     return np.sqrt(np.einsum("pkc,pkc->pk", off, off))
+def segment_covers(pipe, segments):
+    """The collision units (starts, ends, start radii, end radii) of the plain tube along
+    ``segments`` (laid out as :meth:`Pipe.surface` lays it out): each segment's unit,
+    the capsules of its mitred corners, its ball joints and the caps of its ends."""
+    n = len(pipe.path)
+    empty = (np.empty((0, 3)), np.empty((0, 3)), np.empty(0), np.empty(0))
+    if not len(segments):
+        return empty
+    centres, radii = pipe.path.points, pipe.ring_radii
+    start_ring, end_ring, joints = laid_rings(pipe)
+    tips = miter_tips(pipe)
+    joint_units = []
+    for row, (outer, swept) in joints.items():
+        tips[row] = centres[row]
+        reach_ = float(np.linalg.norm(swept[:, outer] - centres[row], axis=2).max())
+        joint_units.append((centres[row], centres[row], reach_, reach_))
+    a, b = np.asarray(segments), (np.asarray(segments) + 1) % n
+    wedge = np.zeros(n)
+    need = np.zeros(n, bool)
+    cones = []
+    for rows in np.array_split(np.arange(len(a)), max(1, len(a) // COVER_BLOCK)):
+        ka, kb = a[rows], b[rows]
+        cone, before, past = round_cone_covers(
+            np.concatenate([start_ring[ka], end_ring[kb]], axis=1), centres[ka], centres[kb],
+            radii[ka], radii[kb], tips[ka], tips[kb])
+        cones.append(cone)
+        for at, (_, radius, needed) in ((ka, before), (kb, past)):
+            np.maximum.at(wedge, at, np.where(needed, radius, 0.0))
+            need[at] |= needed
+    corner = np.flatnonzero(need)
+    units = [tuple(np.concatenate([c[k] for c in cones]) for k in range(4)),
+             (centres[corner], tips[corner], wedge[corner], wedge[corner])]
+    if joint_units:
+        units.append(tuple(np.array(v) for v in zip(*joint_units)))
+    if not pipe.closed:
+        caps = []
+        for row, sign, seg, style in ((0, -1, 0, pipe.cap_styles[0]),
+                                      (n - 1, 1, len(pipe.path.segments) - 1,
+                                       pipe.cap_styles[1])):
+            cap = cap_axes(pipe._tubes, row, sign, pipe, style)
+            if cap is not None and seg in set(np.asarray(segments).tolist()):
+                caps.append(cap_piece(pipe, row, cap, [end_ring[row]]))
+        if caps:
+            units.append(piece_covers(caps))
+    return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+def laid_rings(pipe):
+    """The rings the plain tube's side is laid out on, as :meth:`Pipe.surface` lays it
+    out: ``(starts, ends, joints)``, (N, sides, 3) the ring each segment leaves from
+    and the one it arrives at (the ring itself, or at a ball joint the joint's last and
+    first ring), and ``{row: (outer, rings)}`` each ball joint (:func:`ball_joint`)."""
+    with np.errstate(invalid="ignore"):             # a reversal's ring: not used (a joint)
+        rings = pipe.rings()
+    starts, ends = rings.copy(), rings
+    joints = {}
+    for row in np.flatnonzero(joint_rows_of(pipe._tubes, 0, len(pipe.path) - 1, pipe)).tolist():
+        joints[row] = ball_joint(pipe._tubes, row, pipe)
+        ends[row], starts[row] = joints[row][1][0], joints[row][1][-1]
+    return starts, ends, joints
+
+
+def piece_covers(pieces):
+    """The collision units of convex pieces (:class:`Piece`): their round cone covers
+    (:func:`~cadpipe.geometry.cover.round_cone_covers`), one piece at a time."""
+    units = []
+    for piece in pieces:
+        cone, before, past = round_cone_covers(
+            piece.points[None], piece.a[None], piece.b[None], np.array([piece.ra]),
+            np.array([piece.rb]), piece.tip_a[None], piece.tip_b[None])
+        units.append(cone)
+        for centre, (tip, radius, needed) in ((piece.a, before), (piece.b, past)):
+            if needed[0]:
+                units.append((centre[None], tip, radius, radius))
+    return tuple(np.concatenate([u[k] for u in units]) for k in range(4))
+
+
+#: segments whose covers are computed at once (bounds the memory of their points)
+COVER_BLOCK = 4096
+
+

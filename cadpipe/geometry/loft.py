@@ -45,7 +45,7 @@ def fan_faces(ring_start, sides, *, apex=None, at_end=False):
 
 
 @lru_cache(maxsize=4096)
-def _zipper_pattern(n_a, n_b, b_offset):
+def zipper_pattern(n_a, n_b, b_offset):
     """:func:`zipper_faces` for one ring pair, ring A numbered ``0..n_a-1`` and ring B
     ``n_a..n_a+n_b-1``."""
     mid_a = (np.arange(n_a) + 0.5) / n_a
@@ -78,7 +78,7 @@ def zipper_faces(a_start, n_a, b_start, n_b, b_offset):
     pattern, so a chain of a thousand stitches costs a few numpy calls.
     """
     n_a, n_b = np.asarray(n_a), np.asarray(n_b)
-    local = np.concatenate([_zipper_pattern(*key) for key in
+    local = np.concatenate([zipper_pattern(*key) for key in
                             zip(n_a.tolist(), n_b.tolist(), np.asarray(b_offset).tolist())])
     sizes = n_a + n_b
     in_b = local >= np.repeat(n_a, sizes)[:, None]

@@ -17,12 +17,13 @@ from types import MappingProxyType
 import numpy as np
 from numpy.typing import ArrayLike
 
-from cadpipe import _deprecated
 from cadpipe._validate import as_points
 from cadpipe.core.vec import bounds, cross
+from cadpipe.core.weld import renumbered, unique_points
 from cadpipe.errors import InputError, MeshError
 from cadpipe.geometry.topology import closed, connected_labels, edge_table
 from cadpipe.geometry.winding import WindingTree
+from cadpipe.core import formats
 from cadpipe.core.transform import as_matrix
 
 
@@ -71,6 +72,14 @@ def merge_tables(tables: Iterable[Sequence[Hashable]]) -> tuple[tuple, list[np.n
 
 #: faces per step of :attr:`Mesh.volume`: 64M-face meshes summed in 72 MB pieces
 _VOLUME_CHUNK = 1 << 20
+
+
+def reserve_ids(count):
+    """``count`` fresh manifold3d original ids, to tag each input solid's triangles."""
+    import manifold3d
+
+    first = manifold3d.Manifold.reserve_ids(count)
+    return range(first, first + count)
 
 
 def _frozen(arr, dtype):
@@ -239,6 +248,35 @@ class Mesh:
             face_part = np.zeros(len(self._faces), np.int32)
         return self._same_layout(Mesh(self._vertices, self._faces, face_part=face_part,
                                       part_names=part_names, attributes=self._attributes))
+
+    def welded(self, decimals: int = 8) -> Mesh:
+        """This mesh with its duplicate vertices (equal to ``decimals`` decimals) made one.
+
+        Files store a vertex once per triangle (STL) or once per normal or colour
+        (GLB, PLY); the solid is the same surface with shared corners. The vertices
+        keep their first-seen order (:func:`cadpipe.core.weld.unique_points`).
+
+        Parameters
+        ----------
+        decimals : int
+            Vertices are the same point where their coordinates round alike to this
+            many decimals (8, as trimesh's ``merge_vertices``: text formats round).
+
+        Returns
+        -------
+        mesh : Mesh
+            ``self`` when no two vertices are the same point.
+        """
+        rows = np.ascontiguousarray(self._vertices)
+        first, inverse = unique_points(rows, decimals)
+        if len(first) == len(rows):
+            return self
+        faces = renumbered(self._faces, inverse)
+        # the first-seen points are often the leading rows (a GLB's crease copies come
+        # last): then they are a view, not a copy
+        kept = rows[:len(first)] if first[-1] == len(first) - 1 else rows[first]
+        return Mesh.trusted(kept, faces, face_part=self._face_part,
+                            part_names=self._part_names, attributes=self._attributes)
 
     def with_attributes(self, **attributes: Any) -> Mesh:
         """The same mesh with ``attributes`` added to (or replacing) its own.
@@ -577,7 +615,7 @@ class Mesh:
             What to call the mesh in the error.
         original_id : int, optional
             manifold3d original id to tag every triangle with (see
-            :func:`cadpipe.solids.booleans.reserve_ids`), so a boolean's output faces
+            :func:`reserve_ids`), so a boolean's output faces
             still know their part.
 
         Returns
@@ -605,8 +643,8 @@ class Mesh:
         return solid
 
     @classmethod
-    def from_manifold(cls, solid: Any, part_of_id: Mapping[int, str] | None = None, *,
-                      part_names: Mapping[int, str] | None = None, **kwargs: Any) -> Mesh:
+    def from_manifold(cls, solid: Any, part_of_id: Mapping[int, str] | None = None,
+                      **kwargs: Any) -> Mesh:
         """A mesh of a manifold3d solid, its faces labelled by the part they came from.
 
         Parameters
@@ -616,8 +654,6 @@ class Mesh:
             Part name of each manifold3d original id (as tagged by
             :meth:`to_manifold`); the result's :attr:`part_names` are the names of
             the parts that still have faces, in the mapping's order.
-        part_names : mapping, optional
-            Deprecated name of ``part_of_id``.
         **kwargs
             Other :class:`Mesh` arguments (``attributes``).
 
@@ -626,10 +662,6 @@ class Mesh:
         mesh : Mesh
             Vertices welded where manifold3d split them between triangle runs.
         """
-        if part_names is not None:
-            _deprecated.warn("Mesh.from_manifold(part_names=...)",
-                             "Mesh.from_manifold(part_of_id=...)")
-            part_of_id = part_names
         m = solid.to_mesh64()
         vertices = np.asarray(m.vert_properties)[:, :3]
         faces = np.asarray(m.tri_verts, dtype=np.int64)
@@ -664,16 +696,14 @@ class Mesh:
         path : str or path-like
             ``.stl``, ``.3mf``, ``.usda``/``.usdc``/``.usdz``, ``.glb``, ``.obj``, ``.ply``.
         **options
-            Format options (see :mod:`cadpipe.io.files`).
+            Format options: the writer's keyword arguments (see docs/export.md).
 
         Returns
         -------
         path : pathlib.Path
             The file written.
         """
-        from cadpipe.io.files import export
-
-        return export(self, path, **options)
+        return formats.export(self, path, **options)
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> Mesh:
@@ -687,6 +717,4 @@ class Mesh:
         -------
         mesh : Mesh
         """
-        from cadpipe.io.files import load_mesh
-
-        return load_mesh(path)
+        return formats.load_mesh(path)

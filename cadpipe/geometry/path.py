@@ -12,13 +12,11 @@ polylines at once (a splice of a thousand pipes); a :class:`Path` is a batch of 
 from __future__ import annotations
 
 from functools import cached_property
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from cadpipe import limits
-from cadpipe import _deprecated
 from cadpipe._validate import as_points, as_positive
 from cadpipe.core.vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
@@ -250,13 +248,6 @@ class Path:
         pts = np.where(corner[source][:, None], arc, p)
         return Path(pts, closed=self._closed)
 
-    def fillet(self, bend_radius: float,
-               max_angle: float = ARC_STEP) -> tuple[Path, np.ndarray]:
-        """Deprecated: ``(filleted(...), fillet_sources(...))``."""
-        _deprecated.warn("Path.fillet()", "Path.filleted() and Path.fillet_sources()")
-        return (self.filleted(bend_radius, max_angle),
-                self.fillet_sources(bend_radius, max_angle))
-
     def trimmed(self, start: float = 0.0, end: float = 0.0) -> Path:
         """This open path with ``start`` and ``end`` arc length removed from its ends.
 
@@ -309,37 +300,6 @@ class Path:
         return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
-    @classmethod
-    def from_trajectory(cls, robot: Any, configurations: ArrayLike, frame: str, step: float,
-                        base: ArrayLike | None = None, point: ArrayLike | None = None) -> Path:
-        """The path of a robot ``frame``'s origin (or of a ``point`` fixed in it) over
-        a joint trajectory, sampled so the polyline follows the motion within
-        ``step / 2``.
-
-        Parameters
-        ----------
-        robot : cadpipe.collision.Robot
-        configurations : (C, A) array_like
-            Joint values along the trajectory, radians or metres.
-        frame : str
-            The link or frame whose origin is followed.
-        step : float
-            Largest deviation allowed, doubled, in metres.
-        base : (4, 4) array_like, optional
-            Placement of the robot's base.
-        point : (3,) array_like, optional
-            A point in ``frame``'s coordinates to follow instead of its origin (a
-            tool centre point).
-
-        Returns
-        -------
-        path : Path
-            See :func:`cadpipe.collision.trajectory.trajectory_points`.
-        """
-        from cadpipe.collision.trajectory import path_from_trajectory
-
-        return path_from_trajectory(robot, configurations, frame, step, base, point)
-
     @classmethod
     def spline(cls, points: ArrayLike, step: float | None = None, *,
                tolerance: float | None = None, closed: bool = False) -> Path:

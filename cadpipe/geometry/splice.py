@@ -23,11 +23,13 @@ from cadpipe._validate import as_choice, as_flag
 from cadpipe.core.vec import norm
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
-from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.mesh import Mesh, reserve_ids
 from cadpipe.geometry.path import Polylines
-from cadpipe.geometry.pipe import Pipe, add_pipe_surfaces, hull_solid, tubes_of, welded_solid
+from cadpipe.geometry.pipe import Pipe
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import Tubes
+from cadpipe.geometry.surfaces import add_pipe_surfaces, tubes_of
+from cadpipe.geometry.swept import hull_solid, welded_solid
 
 TRANSITIONS = ("lcm", "merge")
 
@@ -107,7 +109,7 @@ def chain_members(pipes):
     return list(pipes)
 
 
-def _junctions(count, closed):
+def junctions(count, closed):
     """(J,) index of the pipe before and after each junction."""
     before = np.arange(count - 1 + closed)
     return before, (before + 1) % count
@@ -141,7 +143,7 @@ def make_room(pipes, closed=False, transition="lcm"):
 
     Other chains along the same ends (a hollow chain's bores) follow the same plan.
     """
-    before, after = _junctions(len(pipes), closed)
+    before, after = junctions(len(pipes), closed)
     # a safety envelope's ends stay where they are: touching ends get a ball joint
     envelope = np.array([p.envelope for p in pipes])
     joint = _touching(tubes_of(pipes), before, after) & (envelope[before] | envelope[after])
@@ -204,7 +206,7 @@ def chain_mesh(pipes, joint, transition, closed, tubes=None, bridges=None):
     (:class:`ChainPlan`; caps do not change them; a hollow chain's bore passes its
     transitions, see :func:`bore_of_chain`)."""
     strict = any(getattr(p, "strict", False) for p in pipes)
-    before, after = _junctions(len(pipes), closed)
+    before, after = junctions(len(pipes), closed)
     last = len(pipes) - 1
     cap_start = [(i == 0 and not closed) for i in range(len(pipes))]
     cap_end = [(i == last and not closed) for i in range(len(pipes))]
@@ -600,11 +602,9 @@ def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pie
     """The union through manifold3d of the closed pieces of a surface (its faces by part)
     and of the convex hulls of ``hulls`` (point sets, parts ``hull_parts``), faces
     still labelled by the piece they came from, welded at float32 precision as a
-    swept pipe is (:func:`~cadpipe.geometry.pipe.welded_solid`). ``pieces`` ({part: Mesh}) replaces
+    swept pipe is (:func:`~cadpipe.geometry.swept.welded_solid`). ``pieces`` ({part: Mesh}) replaces
     those parts' faces by a closed mesh of their own (a pipe's swept solid)."""
     import manifold3d
-
-    from cadpipe.solids.booleans import reserve_ids
 
     pieces = {} if pieces is None else pieces
     ids = list(reserve_ids(len(names)))

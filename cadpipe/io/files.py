@@ -1,7 +1,5 @@
-"""Writing and reading files: one exporter per format, chosen by the file's suffix.
+"""What every reader and writer shares: whole-or-nothing writes, checked file meshes.
 
-Exporters are looked up in :data:`cadpipe.io.registry.exporters` (entry-point group
-``cadpipe.io.files``), so a plugin adds a format the same way cadpipe does.
 Every output is written whole or not at all: into a temporary file beside the
 target, then renamed over it. The writer holds a lock on its temporary file,
 so the next write to the same target can tell a temporary file left by a
@@ -11,81 +9,22 @@ removes it.
 
 import fcntl
 import glob
-import inspect
 import os
 import tempfile
 import time
 from contextlib import contextmanager
-from dataclasses import replace
 from pathlib import Path as FilePath
 from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe._validate import MAX_MAGNITUDE
+from cadpipe.core import formats
 from cadpipe.core.kernels import native
-from cadpipe.core.weld import renumbered, unique_points
-from cadpipe.errors import ExportError, InputError, MeshError
-from cadpipe.io.registry import exporters
-
-
-def suffix_of(path):
-    """The format key of a path: its lower-case suffix without the dot."""
-    suffix = FilePath(path).suffix.lower().lstrip(".")
-    if not suffix:
-        raise InputError(f"no file suffix; use one of {', '.join(exporters.names())}", file=path)
-    return suffix
-
-
-def unique_name(name, taken):
-    """``name``, or ``name_1``, ``name_2``, ... if already in ``taken``; adds the result."""
-    candidate, n = str(name), 1
-    while candidate in taken:
-        candidate, n = f"{name}_{n}", n + 1
-    taken.add(candidate)
-    return candidate
-
-
-#: values of ``export(..., layout=)``
-LAYOUTS = ("scene", "print")
-
-
-def export(obj, path, *, layout="scene", **options):
-    """Write a :class:`~cadpipe.Mesh` (or anything an exporter accepts) to ``path``.
-
-    Parameters
-    ----------
-    layout : {"scene", "print"}
-        "scene" writes the parts where they are; "print" lays every separate
-        body on a build plate first (:func:`cadpipe.io.scene.laid_out_for_print`:
-        on z = 0, side by side; one 3MF object per body).
-    **options
-        The format's own options (``units``, ``ascii``, ``crease_angle``, ...).
-
-    Returns the path written. Raises :class:`InputError` for an unknown suffix or
-    option and :class:`ExportError` when the file cannot be written (no partial
-    file remains).
-    """
-    from cadpipe.io.scene import as_scene, laid_out_for_print
-
-    key = suffix_of(path)
-    if key not in exporters:
-        raise InputError(f"unknown output format '.{key}'; supported: "
-                         f"{', '.join('.' + n for n in exporters.names())}", file=path)
-    if layout not in LAYOUTS:
-        raise InputError(f"expected one of {', '.join(LAYOUTS)}, got {layout!r}",
-                         key="layout")
-    if layout == "print":
-        obj = laid_out_for_print(as_scene(obj))
-    writer = exporters.get(key)
-    known = inspect.signature(writer).parameters
-    if not any(p.kind is p.VAR_KEYWORD for p in known.values()):
-        unknown = sorted(set(options) - set(known))
-        if unknown:
-            usable = [n for n, p in known.items() if p.kind is p.KEYWORD_ONLY]
-            raise InputError(f"'.{key}' files take no option {', '.join(unknown)}; "
-                             f"they take {', '.join(usable) or 'none'}", key=unknown[0])
-    writer(obj, FilePath(path), **options)
-    return FilePath(path)
+from cadpipe.core.units import UNITS
+from cadpipe.errors import ExportError, MeshError
+from cadpipe.geometry.mesh import Mesh
+from cadpipe.solids.scene import Scene, ScenePart, unique_name
 
 
 def _umask():
@@ -202,52 +141,6 @@ def abandon_writes():
 ASSUMED_UNITS = {"stl": "mm", "obj": "m", "ply": "m", "off": "m"}
 
 
-def load_scene(path):
-    """Read a mesh or scene file into a :class:`~cadpipe.io.scene.Scene`, Z up.
-
-    GLB (:func:`cadpipe.io.gltf.read_glb`) and USD (``.usda``, ``.usdc``,
-    ``.usdz``, ``.usd``: :func:`cadpipe.io.usd.read_usd`) and 3MF
-    (:func:`cadpipe.io.threemf.read_3mf`) keep their parts, names, colours and
-    units; OBJ keeps its ``o`` objects and ``g`` groups; other formats go through
-    trimesh.
-    Exact duplicate vertices are welded (:func:`welded`). A file without units is in
-    :data:`ASSUMED_UNITS` (STL millimetres, as slicers read it) and its mesh
-    attributes say ``units_assumed``. Raises :class:`ExportError` for a missing
-    file and :class:`MeshError` for one that holds no triangles.
-    """
-    from cadpipe import limits
-    from cadpipe._validate import as_input_file
-
-    path = as_input_file(path, "mesh file")     # a FIFO or device is never opened
-    limits.check_archive(path)                  # 3MF, USDZ: refuse a zip bomb unopened
-    if path.suffix.lower() == ".stl":           # 50 bytes a triangle in binary, more in text
-        limits.check("max_triangles", path.stat().st_size / 50, "this STL file", file=path)
-    key = path.suffix.lower().lstrip(".")
-    if key == "glb":
-        from cadpipe.io.gltf import read_glb
-
-        scene = read_glb(path)
-    elif key in ("usd", "usda", "usdc", "usdz"):
-        from cadpipe.io.usd import read_usd
-
-        scene = read_usd(path)
-    elif key == "obj":
-        from cadpipe.io.trimesh_formats import read_obj
-
-        scene = read_obj(path)
-    elif key == "3mf":
-        from cadpipe.io.threemf import read_3mf
-
-        scene = read_3mf(path)
-    else:
-        from cadpipe.io.stl import read_binary_stl
-
-        scene = (read_binary_stl(path) if key == "stl" else None) or _trimesh_scene(path, key)
-    limits.check("max_triangles", sum(len(p.mesh.faces) for p in scene.parts),
-                 "this mesh file", file=path)
-    return replace(scene, parts=tuple(replace(p, mesh=welded(p.mesh)) for p in scene.parts))
-
-
 def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), attributes=None):
     """A :class:`~cadpipe.Mesh` of part ``name`` read from ``path``; :class:`MeshError`
     (naming the file and part) for non-finite coordinates, bad face indices or labels.
@@ -256,10 +149,6 @@ def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), att
     reader's own arrays (kept as they are, not copied); ``Mesh``'s own checks,
     numpy reductions over rows of 3, took most of the time of reading a GLB.
     """
-    from cadpipe.geometry.mesh import Mesh
-
-    from cadpipe._validate import MAX_MAGNITUDE
-
     vertices, faces = np.asarray(vertices, dtype=np.float64), np.asarray(faces)
     if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or \
             faces.shape[1] != 3 or not np.issubdtype(faces.dtype, np.integer):
@@ -268,15 +157,13 @@ def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), att
     if not native.within(np.ascontiguousarray(vertices).reshape(-1), MAX_MAGNITUDE):
         raise MeshError(f"some vertex coordinates are NaN or infinite (or beyond "
                         f"{MAX_MAGNITUDE:g}); the file is corrupt", file=path, part=name)
-    faces = faces.astype(np.int64, copy=False)
-    faces = np.ascontiguousarray(faces)
+    faces = np.ascontiguousarray(faces, np.int64)
     low, high = native.index_range(faces.reshape(-1))
     if faces.size and (low < 0 or high >= len(vertices)):
         raise MeshError(f"face indices must lie in [0, {len(vertices) - 1}], got "
                         f"[{low}, {high}]", key="faces", file=path, part=name)
     if face_part is not None:
-        face_part = np.asarray(face_part).astype(np.int32, copy=False)
-        face_part = np.ascontiguousarray(face_part)
+        face_part = np.ascontiguousarray(face_part, np.int32)
         low, high = native.index_range(face_part)
         if face_part.shape != (len(faces),) or (len(faces) and (
                 low < 0 or high >= len(part_names))):
@@ -286,33 +173,13 @@ def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), att
                         attributes=attributes)
 
 
-def welded(mesh):
-    """``mesh`` with duplicate vertices (equal to 8 decimals) made one.
-
-    Files store a vertex once per triangle (STL) or once per normal or colour
-    (GLB, PLY); the solid is the same surface with shared corners. The vertices
-    keep their first-seen order.
-    """
-    from cadpipe.geometry.mesh import Mesh
-
-    rows = np.ascontiguousarray(mesh.vertices)
-    # to 8 decimals, as trimesh's merge_vertices: text formats round
-    first, inverse = unique_points(rows, 8)
-    if len(first) == len(rows):
-        return mesh
-    faces = renumbered(mesh.faces, inverse)
-    # the first-seen points are often the leading rows (a GLB's crease copies come last):
-    # then they are a view, not a copy
-    kept = rows[:len(first)] if first[-1] == len(first) - 1 else rows[first]
-    return Mesh.trusted(kept, faces, face_part=mesh.face_part,
-                        part_names=mesh.part_names, attributes=mesh.attributes)
-
-
-def _trimesh_scene(path, key):
+@formats.reader("ply", "off")
+def read_trimesh(path):
+    """A Scene of a file trimesh reads (PLY, OFF; and an ASCII STL, through
+    :func:`cadpipe.io.stl.read_stl`), its face colours as part labels."""
     import trimesh
 
-    from cadpipe.io.scene import UNITS, Scene, ScenePart
-
+    key = FilePath(path).suffix.lower().lstrip(".")
     try:
         loaded = trimesh.load(path, process=False)
     except Exception as exc:  # trimesh raises many types for corrupt input
@@ -374,23 +241,3 @@ def _face_colour_labels(tm, name):
     colours = np.stack([codes >> 16, (codes >> 8) & 255, codes & 255], axis=1)
     names = tuple(f"{name}_{r:02x}{g:02x}{b:02x}" for r, g, b in colours)
     return labels.ravel(), names, [tuple(v / 255.0 for v in c) for c in colours.tolist()]
-
-
-def load_mesh(path):
-    """Read a mesh file (any format :func:`load_scene` reads) into one
-    :class:`~cadpipe.Mesh` in world coordinates.
-
-    A file of several parts gives a mesh whose faces are labelled with their
-    part's name (``face_part``); a single part keeps its own labels (a GLB's
-    materials, a USD mesh's subsets). ``attributes`` hold ``source`` and
-    ``units``.
-    """
-    from cadpipe.geometry.mesh import Mesh
-
-    scene = load_scene(path)
-    if len(scene.parts) == 1:
-        return scene.parts[0].world_mesh()
-    meshes = [part.world_mesh().with_parts((part.name,)) for part in scene.parts]
-    joined = Mesh.concatenate(meshes)
-    return Mesh(joined.vertices, joined.faces, face_part=joined.face_part,
-                part_names=joined.part_names, attributes=scene.parts[0].mesh.attributes)

@@ -19,7 +19,7 @@ import numpy as np
 
 from cadpipe.errors import InputError
 from cadpipe.geometry.mesh import Mesh
-from cadpipe.io.scene import parse_color
+from cadpipe.core.color import parse_color
 
 #: colour of a part that was given none (a light steel grey)
 DEFAULT_COLOR = (0.70, 0.72, 0.75)

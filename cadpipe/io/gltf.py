@@ -29,10 +29,11 @@ from cadpipe import limits
 from cadpipe.core.vec import bounds as point_bounds
 from cadpipe.errors import CadpipeError, InputError, MeshError, shown
 from cadpipe.core.transform import placed_points
-from cadpipe.io.files import atomic_path, file_mesh, unique_name
+from cadpipe.core import formats
+from cadpipe.io.files import atomic_path, file_mesh
 from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import DEFAULT_CREASE_ANGLE, split_for_normals
-from cadpipe.io.scene import TO_Y_UP, as_scene
+from cadpipe.solids.scene import TO_Y_UP, Scene, ScenePart, as_scene, unique_name
 
 _FLOAT, _UINT = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
@@ -48,7 +49,9 @@ def gltf_root(scene):
     return matrix
 
 
-def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normals=True):
+@formats.writer("glb")
+def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normals=True,
+              layout="scene"):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as binary glTF, atomically.
 
     Parameters
@@ -60,11 +63,13 @@ def write_glb(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units="m", normal
     units : str
         Must be "m": glTF is in metres by definition (the root node scales
         the scene's own units to metres).
+    layout : {"scene", "print"}
+        See :func:`~cadpipe.solids.scene.as_scene`.
     """
     if units != "m":
         raise InputError(f"units: glTF is in metres by definition, got {units!r}; "
                          "the file's root node converts the scene's units")
-    scene = as_scene(obj)
+    scene = as_scene(obj, layout=layout)
     doc = _Document()
     root = {"name": scene.name, "matrix": _column_major(gltf_root(scene)), "children": []}
     doc.nodes.append(root)
@@ -170,8 +175,9 @@ _COMPONENTS = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
 
 
+@formats.reader("glb")
 def read_glb(path):
-    """The parts of a binary glTF file as a Z-up :class:`~cadpipe.io.scene.Scene` in metres.
+    """The parts of a binary glTF file as a Z-up :class:`~cadpipe.solids.scene.Scene` in metres.
 
     Each node with a mesh is a part (named after the node, or its mesh) in world
     coordinates; each triangle primitive's faces are labelled with its
@@ -179,7 +185,6 @@ def read_glb(path):
     back to +Z up. Raises :class:`~cadpipe.errors.MeshError` for a file that is
     not GLB or holds no triangles.
     """
-    from cadpipe.io.scene import Scene, ScenePart
 
     limits.check("max_unpacked_bytes", FilePath(path).stat().st_size, "reading this GLB file",
                  file=path)

@@ -1,7 +1,7 @@
 """Previews a person looks at: a PNG picture and a self-contained 3D web page.
 
-Both read a :class:`~cadpipe.io.scene.Scene` (a Mesh, Pipe or Assembly via
-:func:`~cadpipe.io.scene.as_scene`), colour every part the same way and can
+Both read a :class:`~cadpipe.solids.scene.Scene` (a Mesh, Pipe or Assembly via
+:func:`~cadpipe.solids.scene.as_scene`), colour every part the same way and can
 highlight parts (colliding ones, say) in a colour nothing else uses.
 
 - :func:`render_png` draws offscreen with :mod:`cadpipe.io.raster` (numpy, no GPU
@@ -25,7 +25,8 @@ from cadpipe.errors import InputError
 from cadpipe.io.files import atomic_path
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.io.raster import rasterize
-from cadpipe.io.scene import as_scene, parse_color
+from cadpipe.core.color import parse_color
+from cadpipe.solids.scene import as_scene
 
 #: named camera directions as (azimuth, elevation) in degrees; azimuth from +X
 #: towards +Y about the up axis, so "front" looks along +Y from -Y

@@ -13,16 +13,19 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
-from cadpipe.io.scene import as_scene
-from cadpipe.io.files import atomic_path, file_mesh
+from cadpipe import limits
+from cadpipe.core import formats
+from cadpipe.io.files import atomic_path, file_mesh, read_trimesh
 from cadpipe.io.flatten import flatten
+from cadpipe.solids.scene import Scene, ScenePart, as_scene
 
 _RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attr", "<u2")])
 #: faces per block of :func:`_blocks` (its temporaries fit in L2 cache)
 _BLOCK = 1 << 16
 
 
-def write_stl(obj, path, *, ascii=False, units="mm"):
+@formats.writer("stl")
+def write_stl(obj, path, *, ascii=False, units="mm", layout="scene"):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as STL, atomically.
 
     Parameters
@@ -30,10 +33,12 @@ def write_stl(obj, path, *, ascii=False, units="mm"):
     ascii : bool
         Write the text form (about 5x larger and slower to read) instead of binary.
     units : str
-        Length unit of the file's coordinates (a key of ``cadpipe.io.scene.UNITS``);
+        Length unit of the file's coordinates (a key of ``cadpipe.core.units.UNITS``);
         millimetres, as slicers read STL.
+    layout : {"scene", "print"}
+        See :func:`~cadpipe.solids.scene.as_scene`.
     """
-    scene = as_scene(obj)
+    scene = as_scene(obj, layout=layout)
     mesh = flatten(scene, scene.scale_to(units)).mesh
     with atomic_path(path) as tmp, open(tmp, "w" if ascii else "wb") as fh:
         if ascii:
@@ -87,16 +92,23 @@ def _ascii(records):
     return (facet * len(rows)).format(*rows.ravel().tolist())
 
 
+@formats.reader("stl")
+def read_stl(path):
+    """An STL file as a one-part :class:`~cadpipe.solids.scene.Scene` in millimetres (as
+    slicers read STL; ``units_assumed``): binary STL read here, ASCII STL by trimesh."""
+    path = FilePath(path)                  # 50 bytes a triangle in binary, more in text
+    limits.check("max_triangles", path.stat().st_size / 50, "this STL file", file=path)
+    return read_binary_stl(path) or read_trimesh(path)
+
+
 def read_binary_stl(path):
-    """A binary STL file as a one-part :class:`~cadpipe.io.scene.Scene` in millimetres
-    (as slicers read STL; ``units_assumed``), or None when it is not binary STL (its
-    size is not 84 + 50 bytes per triangle): ASCII STL is left to trimesh.
+    """A binary STL file as a one-part :class:`~cadpipe.solids.scene.Scene` in
+    millimetres, or None when it is not binary STL (its size is not 84 + 50 bytes per
+    triangle).
 
-    The records are read straight into numpy; every corner is its own vertex
-    until :func:`~cadpipe.io.files.welded` joins them.
+    The records are read straight into numpy; every corner is its own vertex until
+    :func:`~cadpipe.io.files.file_mesh` welds them.
     """
-    from cadpipe.io.scene import Scene, ScenePart
-
     path = FilePath(path)
     size = path.stat().st_size
     with open(path, "rb") as fh:

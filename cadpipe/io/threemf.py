@@ -38,9 +38,10 @@ import numpy as np
 from cadpipe import limits
 from cadpipe.errors import InputError, MeshError, shown
 from cadpipe.geometry.mesh import merge_tables
-from cadpipe.io.scene import as_scene
 from cadpipe.core.transform import placed_points
-from cadpipe.io.files import atomic_path, file_mesh, unique_name
+from cadpipe.core import formats
+from cadpipe.io.files import atomic_path, file_mesh
+from cadpipe.solids.scene import Scene, ScenePart, as_scene, unique_name
 from cadpipe.io.flatten import labelled
 from cadpipe.io.text import ascii_rows, float32_columns
 
@@ -70,7 +71,8 @@ _MAX_ROW_BYTES = 96
 _CHUNK = 1 << 16
 
 
-def write_3mf(obj, path, *, compresslevel=1, units=None):
+@formats.writer("3mf")
+def write_3mf(obj, path, *, compresslevel=1, units=None, layout="scene"):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as a 3MF package, atomically.
 
     Parameters
@@ -79,8 +81,10 @@ def write_3mf(obj, path, *, compresslevel=1, units=None):
         Deflate level 1-9 of the model part (1: fastest; 9 saves about 15 %).
     units : str, optional
         Length unit of the file (the model's ``unit``); default: the scene's own.
+    layout : {"scene", "print"}
+        See :func:`~cadpipe.solids.scene.as_scene`.
     """
-    scene = as_scene(obj)
+    scene = as_scene(obj, layout=layout)
     units = units or scene.units
     if units not in UNIT_NAMES:
         raise InputError(f"units: 3MF knows {', '.join(UNIT_NAMES)}, got {units!r}; "
@@ -172,8 +176,9 @@ _ROW = {b"vertices": b"vertex", b"triangles": b"triangle"}
 _TRIANGLE_ATTRIBUTES = ("v1", "v2", "v3", "pid", "p1")
 
 
+@formats.reader("3mf")
 def read_3mf(path):
-    """The objects of a 3MF package as a Z-up :class:`~cadpipe.io.scene.Scene`.
+    """The objects of a 3MF package as a Z-up :class:`~cadpipe.solids.scene.Scene`.
 
     One part per mesh object placed by the build (through components, also those
     in other model files of the production extension), in world coordinates and
@@ -189,7 +194,6 @@ def read_3mf(path):
     object, by ElementTree. A model the scan cannot read (comments, CDATA, a
     prefix on the core namespace) is read by ElementTree alone, more slowly.
     """
-    from cadpipe.io.scene import Scene, ScenePart
 
     try:
         archive = zipfile.ZipFile(path)

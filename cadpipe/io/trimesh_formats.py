@@ -25,11 +25,13 @@ import numba
 import numpy as np
 
 from cadpipe.errors import ExportError, MeshError
-from cadpipe.io.files import atomic_path, file_mesh, unique_name
+from cadpipe.core import formats
+from cadpipe.core.units import UNITS
+from cadpipe.io.files import atomic_path, file_mesh
 from cadpipe.io.flatten import flatten, labelled
-from cadpipe.io.scene import as_scene
 from cadpipe.io.text import ascii_rows, float32_columns
 from cadpipe.io.usd import fan_triangles
+from cadpipe.solids.scene import Scene, ScenePart, as_scene, unique_name
 
 _OBJ_VERTEX = (b"v ", 0, b"e", 1, b" ", 2, b"e", 3, b" ", 4, b"e", 5, b"\n")
 _OBJ_FACE = (b"f ", 0, b" ", 1, b" ", 2, b"\n")
@@ -39,15 +41,18 @@ _PLY_FACE = (b"3 ", 0, b" ", 1, b" ", 2, b" ", 3, b" ", 4, b" ", 5, b"\n")
 _BLOCK = 1 << 16
 
 
-def write_obj(obj, path, *, units="m"):
+@formats.writer("obj")
+def write_obj(obj, path, *, units="m", layout="scene"):
     """Write ``obj`` as Wavefront OBJ (geometry, parts as ``o``/``g``), atomically.
 
     Parameters
     ----------
     units : str
         Length unit of the coordinates (metres, as Blender reads OBJ).
+    layout : {"scene", "print"}
+        See :func:`~cadpipe.solids.scene.as_scene`.
     """
-    scene = as_scene(obj)
+    scene = as_scene(obj, layout=layout)
     scale = scene.scale_to(units)
     with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         fh.write(f"# cadpipe: {scene.name} (units: {units})\n".encode())
@@ -72,7 +77,8 @@ def write_obj(obj, path, *, units="m"):
             offset += len(mesh.vertices)
 
 
-def write_ply(obj, path, *, ascii=False, units="m"):
+@formats.writer("ply")
+def write_ply(obj, path, *, ascii=False, units="m", layout="scene"):
     """Write ``obj`` as PLY with vertex and face colours (binary unless ``ascii``), atomically.
 
     Parameters
@@ -81,8 +87,10 @@ def write_ply(obj, path, *, ascii=False, units="m"):
         Write the text form instead of binary little-endian.
     units : str
         Length unit of the coordinates (metres, as Blender and MeshLab read PLY).
+    layout : {"scene", "print"}
+        See :func:`~cadpipe.solids.scene.as_scene`.
     """
-    scene = as_scene(obj)
+    scene = as_scene(obj, layout=layout)
     painted = flatten(scene, scene.scale_to(units))
     vertices, faces = painted.mesh.vertices, painted.mesh.faces
     rgb = np.round(painted.colors * 255).astype(np.uint8)
@@ -198,8 +206,9 @@ def _obj_name(name):
     return "_".join(str(name).split()) or "part"
 
 
+@formats.reader("obj")
 def read_obj(path):
-    """An OBJ file as a :class:`~cadpipe.io.scene.Scene`: one part per ``o``, its faces
+    """An OBJ file as a :class:`~cadpipe.solids.scene.Scene`: one part per ``o``, its faces
     labelled by ``g``; polygons fanned into triangles, exact duplicate vertices kept
     as written. In metres unless the header says otherwise (cadpipe writes
     ``# cadpipe: NAME (units: U)``).
@@ -207,7 +216,6 @@ def read_obj(path):
     Lines are classified with numpy, and each run of ``v`` or ``f`` lines is parsed
     by one ``np.fromstring`` call: no Python work per vertex or face.
     """
-    from cadpipe.io.scene import UNITS, Scene, ScenePart
 
     data = FilePath(path).read_bytes()
     if any(mark in data for mark in (b"\n ", b"\n\t")) or data[:1] in (b" ", b"\t"):

@@ -36,14 +36,18 @@ import numpy as np
 from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.errors import ExportError, MeshError
-from cadpipe.io.scene import TO_Y_UP, as_scene, printable
-from cadpipe.io.files import atomic_path, file_mesh, suffix_of, unique_name
+from cadpipe.core import formats
+from cadpipe.core.formats import suffix_of
+from cadpipe.core.units import UNITS
+from cadpipe.io.files import atomic_path, file_mesh
 from cadpipe.io.flatten import labelled
 from cadpipe.io.normals import DEFAULT_CREASE_ANGLE, shading_normals
+from cadpipe.solids.scene import TO_Y_UP, Scene, ScenePart, as_scene, printable, unique_name
 
 
+@formats.writer("usda", "usdc", "usdz")
 def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_axis=None,
-              normals=True):
+              normals=True, layout="scene"):
     """Write ``obj`` (Mesh, Pipe, Assembly or Scene) as .usda, .usdc or .usdz, atomically.
 
     Parameters
@@ -58,8 +62,10 @@ def write_usd(obj, path, *, crease_angle=DEFAULT_CREASE_ANGLE, units=None, up_ax
     normals : bool
         Write shading normals; without them a renderer shades the (unsubdivided)
         mesh by its faces.
+    layout : {"scene", "print"}
+        See :func:`~cadpipe.solids.scene.as_scene`.
     """
-    scene = as_scene(obj).in_units(units)
+    scene = as_scene(obj, layout=layout).in_units(units)
     up = up_axis or ("Y" if suffix_of(path) == "usdz" else scene.up_axis)
     streamed = Streamed() if suffix_of(path) == "usda" else None
     save_stage(build_stage(scene, crease_angle=crease_angle, up_axis=up, normals=normals,
@@ -422,8 +428,9 @@ def _set_custom_attributes(prim, attributes):
 
 
 # -- reading ---------------------------------------------------------------------
+@formats.reader("usd", "usda", "usdc", "usdz")
 def read_usd(path):
-    """The meshes of a .usda/.usdc/.usdz file as a Z-up :class:`~cadpipe.io.scene.Scene`.
+    """The meshes of a .usda/.usdc/.usdz file as a Z-up :class:`~cadpipe.solids.scene.Scene`.
 
     Each Mesh prim is a part named after the prim, in world coordinates
     (polygons fanned into triangles), in the stage's units (``metersPerUnit``;
@@ -434,7 +441,6 @@ def read_usd(path):
     """
     from pxr import Tf, Usd, UsdGeom
 
-    from cadpipe.io.scene import UNITS, Scene, ScenePart
 
     try:
         stage = Usd.Stage.Open(str(path))

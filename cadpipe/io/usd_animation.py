@@ -15,8 +15,8 @@ Pipes and other meshes given in ``extras`` stand still beside the robot.
 import numpy as np
 
 from cadpipe.errors import InputError
-from cadpipe.io.files import suffix_of
-from cadpipe.io.scene import Scene, ScenePart, as_scene
+from cadpipe.core.formats import suffix_of
+from cadpipe.solids.scene import Scene, ScenePart, as_scene
 
 
 def trajectory_frames(robot, configurations, times=None, fps=24.0):

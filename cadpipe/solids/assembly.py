@@ -34,10 +34,13 @@ from numpy.typing import ArrayLike
 from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.solids.booleans import (as_solid, bounding_boxes, clusters, combine,
-                                     combine_cluster, exportable, reserve_ids, snap)
+                                     combine_cluster, exportable, snap)
 from cadpipe.errors import CadpipeError, GeometryError, InputError
-from cadpipe.geometry.mesh import Mesh
-from cadpipe.io.scene import UNITS, Scene, ScenePart, meters_per_unit, parse_color
+from cadpipe.geometry.mesh import Mesh, reserve_ids
+from cadpipe.core import formats
+from cadpipe.core.color import parse_color
+from cadpipe.core.units import UNITS, meters_per_unit
+from cadpipe.solids.scene import LAYOUTS, Scene, ScenePart
 from cadpipe.core.transform import as_matrix
 
 OPERATIONS = ("add", "subtract", "intersect")
@@ -69,9 +72,9 @@ EXPORT_MODES = ("solid", "parts")
 def export_options(path: str | os.PathLike, options: dict[str, Any]) -> dict[str, Any]:
     """``options`` checked for :meth:`Assembly.export` to ``path``, before any work.
 
-    The options are the keyword parameters of :func:`cadpipe.io.files.export`
-    (``layout``) and of the format's writer (``units``, ``ascii``, ...), read from
-    their signatures, so a spec's output table reaches every one of them.
+    The options are the keyword parameters of the format's writer (``units``,
+    ``layout``, ``ascii``, ...; :mod:`cadpipe.core.formats`), read from its signature,
+    so a spec's output table reaches every one of them.
 
     Parameters
     ----------
@@ -91,13 +94,9 @@ def export_options(path: str | os.PathLike, options: dict[str, Any]) -> dict[str
     InputError
         With ``key`` the option at fault.
     """
-    from cadpipe.io.files import LAYOUTS, export, suffix_of
-    from cadpipe.io.registry import exporters
-
-    suffix = suffix_of(path)
-    writer = exporters.get(suffix)
-    params = {n: p for func in (export, writer)
-              for n, p in inspect.signature(func).parameters.items()
+    suffix = formats.suffix_of(path)
+    writer = formats.writer_for(path)
+    params = {n: p for n, p in inspect.signature(writer).parameters.items()
               if p.kind is p.KEYWORD_ONLY}
     open_ended = any(p.kind is p.VAR_KEYWORD for p in inspect.signature(writer).parameters.values())
     for name, value in options.items():
@@ -440,7 +439,7 @@ class Assembly:
             mesh.transformed(np.linalg.inv(part.transform))
 
     def to_scene(self, mode: str = "parts") -> Scene:
-        """A :class:`~cadpipe.io.scene.Scene` for exporters.
+        """A :class:`~cadpipe.solids.scene.Scene` for exporters.
 
         ``mode="parts"``: one scene part per added part, in its own coordinates with
         its transform, colour and attributes, already cut by the assembly's bores,
@@ -481,7 +480,7 @@ class Assembly:
             printing formats (STL, 3MF, OBJ, PLY, OFF) and "parts" for scene formats
             (USD, GLB, ...).
         **options
-            ``layout`` and the format's options (see :mod:`cadpipe.io.files` and
+            The format's options (``layout``, ``units``, ...; see
             :func:`export_options`).
 
         Returns
@@ -489,8 +488,6 @@ class Assembly:
         path : pathlib.Path
             The file written.
         """
-        from cadpipe.io.files import export, suffix_of
-
         if mode is None:
-            mode = "solid" if suffix_of(path) in SOLID_FORMATS else "parts"
-        return export(self.to_scene(mode), path, **options)
+            mode = "solid" if formats.suffix_of(path) in SOLID_FORMATS else "parts"
+        return formats.export(self.to_scene(mode), path, **options)

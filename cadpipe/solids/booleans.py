@@ -19,7 +19,7 @@ import numpy as np
 
 from cadpipe.errors import GeometryError, MeshError
 from cadpipe.geometry.ragged import Groups
-from cadpipe.geometry.mesh import Mesh
+from cadpipe.geometry.mesh import Mesh, reserve_ids
 from cadpipe.geometry.topology import connected_labels
 
 #: :func:`snap` welds vertices closer than this fraction of the mesh's bounding-box diagonal
@@ -53,14 +53,6 @@ def snap(mesh, tolerance=None):
     face_part = None if mesh.face_part is None else mesh.face_part[keep]
     return Mesh(vertices[first], faces[keep], face_part=face_part, part_names=mesh.part_names,
                 attributes=mesh.attributes)
-
-
-def reserve_ids(count):
-    """``count`` fresh manifold3d original ids, to tag each input solid's triangles."""
-    import manifold3d
-
-    first = manifold3d.Manifold.reserve_ids(count)
-    return range(first, first + count)
 
 
 def as_solid(mesh, name, original_id):

@@ -10,15 +10,14 @@ ends run a little past the pipe, so the cut leaves no skin.
 """
 
 import dataclasses
-import warnings
 from dataclasses import dataclass
 from collections.abc import Mapping, Sequence
+from types import MappingProxyType
 from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
 
-from cadpipe import _deprecated
 from cadpipe._validate import as_choice, as_flag, as_positive
 from cadpipe.solids.booleans import carve
 from cadpipe.errors import InputError
@@ -26,7 +25,8 @@ from cadpipe.geometry.bands import band_planes, wall_scales
 from cadpipe.geometry.clearance import local_folds
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
-from cadpipe.geometry.pipe import Pipe, envelope_factor, laid_rings
+from cadpipe.geometry.cover import laid_rings
+from cadpipe.geometry.pipe import Pipe, envelope_factor
 from cadpipe.geometry.splice import TRANSITIONS, chain_members
 
 END_STYLES = ("open", "closed")
@@ -160,7 +160,7 @@ def bore(pipe, wall, start="open", end="open"):
 def _cap_points(pipe, sign):
     """(K, 3) vertices of ``pipe``'s round cap at one end (``sign`` -1: start), its
     end ring included."""
-    from cadpipe.geometry.pipe import cap_axes
+    from cadpipe.geometry.surfaces import cap_axes
     from cadpipe.geometry.rings import ring_basis
 
     row = 0 if sign < 0 else len(pipe.path) - 1
@@ -210,19 +210,14 @@ class Hollow:
         return carve(bodies, bores, self.attributes["kind"], attributes=self.attributes)
 
 
-def _members(args, kind, name, keyword):
+def _members(args, keyword):
     """The members of a Junction or HollowChain: given as arguments (``splice``'s
-    convention), or, deprecated, as one list."""
+    convention), or as the one sequence ``pipes=`` (what :meth:`replace` passes)."""
     if keyword is not None:
         if not isinstance(keyword, (list, tuple)):
             raise InputError(f"expected a list of pipes, got {type(keyword).__name__}",
                              key="pipes")
         return tuple(keyword)
-    if len(args) == 1 and not isinstance(args[0], kind) and hasattr(args[0], "__iter__"):
-        warnings.warn(f"{name}([...]) with a list is deprecated: pass the pipes as arguments, "
-                      f"{name}(*pipes, ...), as cadpipe.splice(*pipes) takes them",
-                      DeprecationWarning, stacklevel=3)
-        return tuple(args[0])
     return tuple(args)
 
 
@@ -300,9 +295,8 @@ class HollowPipe(Hollow):
     @property
     def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this part."""
-        return _deprecated.Attributes({**self.pipe.attributes, "kind": "hollow pipe",
-                                       "wall": self.wall, "ends": "/".join(self.ends)},
-                                      "HollowPipe.attributes")
+        return MappingProxyType({**self.pipe.attributes, "kind": "hollow pipe",
+                                 "wall": self.wall, "ends": "/".join(self.ends)})
 
 
 @dataclass(frozen=True, eq=False, init=False)
@@ -313,9 +307,7 @@ class Junction(Hollow):
     every bore, so each bore runs through the others' walls and the channels
     connect. Give an end that meets another pipe ``ends="open"`` so its bore reaches
     into that pipe's bore. Pipes may cross anywhere: the unions make one solid, and
-    where a bore crosses another pipe the channels meet. (A single list,
-    ``Junction([a, b])``, still works for this release, with a
-    :class:`DeprecationWarning`.)
+    where a bore crosses another pipe the channels meet.
 
     Parameters
     ----------
@@ -329,7 +321,7 @@ class Junction(Hollow):
 
     def __init__(self, *hollow_pipes: HollowPipe,
                  pipes: Sequence[HollowPipe] | None = None) -> None:
-        members = _members(hollow_pipes, HollowPipe, "Junction", pipes)
+        members = _members(hollow_pipes, pipes)
         if not members:
             raise InputError("expected one or more cadpipe.HollowPipe, got none", key="pipes")
         for i, p in enumerate(members):
@@ -369,9 +361,8 @@ class Junction(Hollow):
     @property
     def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this part."""
-        return _deprecated.Attributes({"kind": "junction", "pipes": len(self.pipes),
-                                       "wall": max(p.wall for p in self.pipes)},
-                                      "Junction.attributes")
+        return MappingProxyType({"kind": "junction", "pipes": len(self.pipes),
+                                 "wall": max(p.wall for p in self.pipes)})
 
 
 @dataclass(frozen=True, eq=False, init=False)
@@ -386,9 +377,7 @@ class HollowChain(Hollow):
     from it; where a ball joint joins two pipes (see :func:`~cadpipe.splice`) the bore
     has a ball joint ``wall`` smaller, and where pieces cross, both chains are their
     pieces' unions, so the bores of crossing pipes meet as a junction's do. ``ends``
-    applies to the chain's two ends; a closed chain has none. (The
-    0.1 form ``HollowChain([p, q], wall, ...)`` still works for this release, with a
-    :class:`DeprecationWarning`.)
+    applies to the chain's two ends; a closed chain has none.
 
     Parameters
     ----------
@@ -412,18 +401,10 @@ class HollowChain(Hollow):
     transition: str = "lcm"
     closed: bool = False
 
-    def __init__(self, *args: Pipe, pipes: Sequence[Pipe] | None = None,
-                 wall: float | None = None, ends: str | tuple[str, str] = "open",
-                 transition: str = "lcm", closed: bool = False) -> None:
-        if pipes is None and args and not isinstance(args[0], Pipe) \
-                and hasattr(args[0], "__iter__"):
-            old = dict(zip(("wall", "ends", "transition", "closed"), args[1:]))
-            args = args[:1]
-            wall, ends = old.get("wall", wall), old.get("ends", ends)
-            transition, closed = old.get("transition", transition), old.get("closed", closed)
-        members = tuple(chain_members(_members(args, Pipe, "HollowChain", pipes)))
-        if wall is None:
-            raise InputError("give the wall thickness: HollowChain(*pipes, wall=...)", key="wall")
+    def __init__(self, *args: Pipe, wall: float, pipes: Sequence[Pipe] | None = None,
+                 ends: str | tuple[str, str] = "open", transition: str = "lcm",
+                 closed: bool = False) -> None:
+        members = tuple(chain_members(_members(args, pipes)))
         set_ = partial(object.__setattr__, self)
         set_("pipes", members)
         set_("wall", _wall(wall, members))
@@ -457,7 +438,7 @@ class HollowChain(Hollow):
         solids, bores : list of Mesh
             ``[the spliced outer pipes]`` and ``[the spliced bores]``.
         """
-        from cadpipe.geometry.splice import _junctions, bore_of_chain, chain_mesh, make_room
+        from cadpipe.geometry.splice import junctions, bore_of_chain, chain_mesh, make_room
 
         plan = make_room(list(self.pipes), self.closed, self.transition)
         outers = list(plan.pipes)
@@ -473,7 +454,7 @@ class HollowChain(Hollow):
             return [outers[0].mesh()], [bores[0].mesh()]
         bridges = None
         if plan.bridges is not None:
-            before, after = (j[~plan.joint] for j in _junctions(len(outers), self.closed))
+            before, after = (j[~plan.joint] for j in junctions(len(outers), self.closed))
             ends, bridges = bore_of_chain(plan.tubes, plan.bridges, before, after,
                                           self.transition, self.wall)
             bores = [_narrowed_ends(b, o, scales) for b, o, scales in zip(bores, outers, ends)]
@@ -484,7 +465,6 @@ class HollowChain(Hollow):
     @property
     def attributes(self) -> Mapping[str, Any]:
         """Read-only mapping of the parameters that made this part."""
-        return _deprecated.Attributes({"kind": "hollow chain", "pipes": len(self.pipes),
-                                       "wall": self.wall, "ends": "/".join(self.ends),
-                                       "transition": self.transition, "closed": self.closed},
-                                      "HollowChain.attributes")
+        return MappingProxyType({"kind": "hollow chain", "pipes": len(self.pipes),
+                                 "wall": self.wall, "ends": "/".join(self.ends),
+                                 "transition": self.transition, "closed": self.closed})

@@ -1,8 +1,9 @@
-"""What exporters write: named, coloured parts with their transforms and units.
+"""What files hold: named, coloured parts with their transforms and units.
 
 An :class:`~cadpipe.Assembly` turns itself into a :class:`Scene` (``to_scene()``);
-a lone Mesh or Pipe becomes a one-part scene. Exporters take a Scene, so every
-format sees the same parts, names, colours and units.
+a lone Mesh or Pipe becomes a one-part scene. Every writer takes a Scene and every
+reader returns one, so each format sees and gives back the same parts, names,
+colours and units.
 """
 
 import unicodedata
@@ -11,11 +12,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from cadpipe.core.units import meters_per_unit
 from cadpipe.errors import InputError
-
-#: length units a scene can be in, as metres per unit
-UNITS = MappingProxyType({"m": 1.0, "cm": 0.01, "mm": 0.001, "in": 0.0254, "ft": 0.3048})
-
 
 #: longest part or scene name a writer puts in a file (XML attributes, prim names, nodes)
 MAX_NAME = 128
@@ -23,36 +21,6 @@ MAX_NAME = 128
 #: scene up axis -> rotation of its coordinates onto +Y up (glTF, USDZ for AR)
 TO_Y_UP = MappingProxyType({"Z": np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]]),
                             "Y": np.eye(3)})
-
-
-def meters_per_unit(units):
-    """Metres in one ``units`` (a key of :data:`UNITS`); :class:`InputError` otherwise."""
-    try:
-        return UNITS[units]
-    except KeyError:
-        raise InputError(f"units: expected one of {', '.join(UNITS)}, got {units!r}") from None
-
-
-def parse_color(color):
-    """An RGB triple of floats in [0, 1] from ``"#rrggbb"``, ``"#rgb"`` or three numbers."""
-    if isinstance(color, str):
-        text = color.strip().lstrip("#")
-        if len(text) == 3:
-            text = "".join(c * 2 for c in text)
-        if len(text) != 6:
-            raise InputError(f"expected '#rrggbb', got {color!r}", key="color")
-        try:
-            return tuple(int(text[i:i + 2], 16) / 255.0 for i in (0, 2, 4))
-        except ValueError:
-            raise InputError(f"expected '#rrggbb', got {color!r}", key="color") from None
-    try:
-        rgb = tuple(float(c) for c in color)
-    except (TypeError, ValueError):
-        raise InputError(f"expected '#rrggbb' or 3 numbers, got {color!r}",
-                         key="color") from None
-    if len(rgb) != 3 or not all(0.0 <= c <= 1.0 for c in rgb):
-        raise InputError(f"expected 3 numbers in [0, 1], got {color!r}", key="color")
-    return rgb
 
 
 def safe_name(name):
@@ -63,6 +31,15 @@ def safe_name(name):
     NUL, and one error message must stay one line.
     """
     return printable(name)[:MAX_NAME] or "part"
+
+
+def unique_name(name, taken):
+    """``name``, or ``name_1``, ``name_2``, ... if already in ``taken``; adds the result."""
+    candidate, n = str(name), 1
+    while candidate in taken:
+        candidate, n = f"{name}_{n}", n + 1
+    taken.add(candidate)
+    return candidate
 
 
 def printable(text):
@@ -147,6 +124,27 @@ class Scene:
             parts.append(replace(part, mesh=_scaled(part.mesh, scale), transform=transform))
         return replace(self, parts=tuple(parts), units=units)
 
+    def as_mesh(self):
+        """The scene as one :class:`~cadpipe.Mesh` in world coordinates.
+
+        A scene of several parts gives a mesh whose faces are labelled with their
+        part's name (``face_part``); a single part keeps its own labels (a GLB's
+        materials, a USD mesh's subsets). ``attributes`` are the first part's.
+        """
+        from cadpipe.geometry.mesh import Mesh
+
+        if len(self.parts) == 1:
+            return self.parts[0].world_mesh()
+        meshes = [part.world_mesh().with_parts((part.name,)) for part in self.parts]
+        joined = Mesh.concatenate(meshes)
+        return Mesh(joined.vertices, joined.faces, face_part=joined.face_part,
+                    part_names=joined.part_names, attributes=self.parts[0].mesh.attributes)
+
+    def welded(self):
+        """This scene with every part's duplicate vertices made one
+        (:meth:`~cadpipe.Mesh.welded`): what a file read becomes."""
+        return replace(self, parts=tuple(replace(p, mesh=p.mesh.welded()) for p in self.parts))
+
     def safe_names(self):
         """This scene with every name through :func:`safe_name` (itself if all are safe)."""
         names = [self.name, *self.colors, *(n for p in self.parts
@@ -159,9 +157,31 @@ class Scene:
         return replace(self, name=safe_name(self.name), parts=parts, colors=colors)
 
 
-def as_scene(obj, name="cadpipe"):
+#: how a writer lays the scene out (``layout=``): as it stands, or on a build plate
+LAYOUTS = ("scene", "print")
+
+
+def as_scene(obj, name="cadpipe", layout="scene"):
     """A :class:`Scene` from a Scene, anything with ``to_scene()``, a Mesh or a Pipe,
-    its names made safe to write (:func:`safe_name`)."""
+    its names made safe to write (:func:`safe_name`).
+
+    Parameters
+    ----------
+    obj : Scene, Assembly, Mesh or Pipe
+    name : str
+        The scene's name when ``obj`` is a lone mesh.
+    layout : {"scene", "print"}
+        "scene" keeps the parts where they are; "print" lays every separate body on a
+        build plate (:func:`laid_out_for_print`: on z = 0, side by side).
+    """
+    if layout not in LAYOUTS:
+        raise InputError(f"expected one of {', '.join(LAYOUTS)}, got {layout!r}",
+                         key="layout")
+    scene = _as_scene(obj, name)
+    return laid_out_for_print(scene) if layout == "print" else scene
+
+
+def _as_scene(obj, name):
     from cadpipe.geometry.mesh import Mesh
 
     if isinstance(obj, Scene):
@@ -201,7 +221,6 @@ def laid_out_for_print(scene, gap=PRINT_GAP):
     from scipy.sparse.csgraph import connected_components
 
     from cadpipe.geometry.mesh import Mesh
-    from cadpipe.io.files import unique_name
 
     if str(scene.up_axis).upper() != "Z":
         raise InputError("layout: a print layout needs a Z-up scene (the bed is z = 0)")

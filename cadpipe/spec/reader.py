@@ -1,9 +1,9 @@
 """Spec files: an assembly written as TOML or JSON, read into the same Python API calls.
 
 One schema for both formats (see ``docs/spec.md``): ``name``, ``units``, ``parts``
-(each with a ``kind`` looked up in :data:`cadpipe.io.registry.part_kinds`), and
+(each with a ``kind`` looked up in :data:`part_kinds`), and
 ``outputs``; a robot cell adds ``robot`` (a posed URDF arm, whose links join the
-assembly as parts), ``allow`` and ``check``, which :func:`cadpipe.collision.world_from_spec`
+assembly as parts), ``allow`` and ``check``, which :func:`cadpipe.spec.world_from_spec`
 turns into a collision world. Reading a spec only parses data and calls registered
 functions; nothing in it is executed.
 
@@ -36,6 +36,7 @@ import numpy as np
 from cadpipe import limits
 from cadpipe._validate import as_choice, as_input_file
 from cadpipe.errors import CadpipeError, InputError, LimitError, SpecError, shown
+from cadpipe.core.registry import Registry
 from cadpipe.core.transform import as_matrix, placement
 
 if typing.TYPE_CHECKING:
@@ -43,6 +44,10 @@ if typing.TYPE_CHECKING:
 
 #: annotation for a number in a part kind's signature (TOML and JSON keep ints apart)
 Number = int | float
+
+#: the part kinds a spec's ``kind`` names: cadpipe's own (:mod:`cadpipe.spec.parts`) and
+#: plugins' (entry-point group ``cadpipe.parts``)
+part_kinds = Registry("cadpipe.parts", "part kind")
 
 _TYPE_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "a string",
                list: "a list", dict: "a table"}
@@ -317,7 +322,7 @@ class Spec:
                       spec=exc.part in self.part_keys)
 
 
-def _parse(file):
+def parse(file):
     """The spec file's table, refusing what would exhaust the parser: a file larger
     than a spec can be, numbers too long to convert, nesting too deep to walk."""
     if not file.exists() and not file.is_symlink():
@@ -411,8 +416,6 @@ def _check(ctx, *, stop_after_self: bool = False, certify: bool = False,
 def _add_parts(ctx, assembly, parts):
     """Each table of ``parts`` built by its kind and added to ``assembly``; returns the
     key path of each part by name."""
-    from cadpipe.io.registry import part_kinds
-
     limits.check("max_parts", len(parts), f"a spec of {len(parts):,} parts", key="parts")
     keys, triangles = {}, 0
     for i, entry in enumerate(parts):
@@ -543,7 +546,7 @@ def read(spec_path, *, data=None, output_folder=None, **budgets):
     try:
         with limits.using(**budgets):
             return SpecContext(file, output_folder, budgets).call(
-                _spec, _parse(file) if data is None else data)
+                _spec, parse(file) if data is None else data)
     except CadpipeError as exc:
         raise exc.at(file=file) from exc.__cause__
 

@@ -1,6 +1,6 @@
 """A robot cell from a spec file: the :class:`CollisionWorld` that ``cadpipe collide`` checks.
 
-Spec files are read in one place, :func:`cadpipe.io.spec.read`; a cell is a spec whose
+Spec files are read in one place, :func:`cadpipe.spec.reader.read`; a cell is a spec whose
 added parts are the collision objects, with an optional ``robot``, ``allow`` and
 ``check`` (see ``docs/spec.md``). This module only turns the read spec into
 :class:`CollisionWorld` calls.
@@ -9,7 +9,7 @@ added parts are the collision objects, with an optional ``robot``, ``allow`` and
 from cadpipe.solids.booleans import carve
 from cadpipe.geometry.pipe import Pipe
 from cadpipe.errors import CadpipeError
-from cadpipe.io.spec import Spec, read
+from cadpipe.spec.reader import Spec, read
 from cadpipe.core.transform import is_rigid
 from cadpipe.collision.world import CollisionWorld
 
@@ -34,7 +34,7 @@ def collision_shape(part):
 
 
 def world_from_spec(spec):
-    """The :class:`CollisionWorld` of a spec (a :class:`~cadpipe.io.spec.Spec` or a file).
+    """The :class:`CollisionWorld` of a spec (a :class:`~cadpipe.spec.reader.Spec` or a file).
 
     The robot's links come first (group ``robot.group``, with their adjacent and
     SRDF pairs allowed), then every added part under its name, then the ``allow``

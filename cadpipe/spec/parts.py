@@ -2,14 +2,14 @@
 
 Each is a thin function from a spec table to an API object: its keyword
 parameters are the table's keys and their annotations the accepted types (see
-:mod:`cadpipe.io.spec`). The keys of ``pipe``, ``box``, ``cylinder``, ``sphere`` and
+:mod:`cadpipe.spec.reader`). The keys of ``pipe``, ``box``, ``cylinder``, ``sphere`` and
 ``mesh`` are derived from the signature of the API call they make
 (:class:`~cadpipe.Pipe`, :mod:`cadpipe.solids.primitives`), so every option of the
 API is a spec key under the same name, and a new option appears in specs without
 an edit here. :data:`SPEC_TYPES` says which values a spec may give for the known
 keys; a key it does not list takes any value and is checked by the API itself.
-They are registered in :data:`cadpipe.io.registry.part_kinds` by
-:mod:`cadpipe.io.registry` itself, so they exist without installing the package.
+They are registered in :data:`cadpipe.spec.reader.part_kinds` when this module is
+imported (``import cadpipe.spec`` does), so they exist without installing the package.
 """
 
 import inspect
@@ -18,7 +18,7 @@ from cadpipe._validate import as_positive
 from cadpipe.errors import CadpipeError, InputError
 from cadpipe.geometry.pipe import Pipe
 from cadpipe.geometry.splice import splice
-from cadpipe.io.spec import Number
+from cadpipe.spec.reader import Number, part_kinds
 from cadpipe.solids import primitives
 from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
 
@@ -26,9 +26,9 @@ from cadpipe.solids.hollow import HollowChain, HollowPipe, Junction
 SPEC_TYPES = {
     "path": list | str | dict, "radius": Number | list, "sides": int | None,
     "tolerance": Number | None, "caps": str, "envelope": bool, "corners": str,
-    "bend_radius": Number | None, "frame": str, "normal": list | None,
+    "frame": str, "normal": list | None,
     "end_normal": list | None, "miter_limit": Number, "cap_segments": int | None,
-    "repair": bool, "strict": bool, "size": Number | list, "center": bool,
+    "strict": bool, "size": Number | list, "center": bool,
     "height": Number, "segments": int, "file": str, "snap_tolerance": Number | None,
     "wall": Number | None, "ends": str | list,
 }
@@ -158,3 +158,5 @@ mesh.__signature__ = mesh.__signature__.replace(parameters=[
 #: every built-in kind by its spec name
 KINDS = {"pipe": pipe, "junction": junction, "chain": chain, "box": box,
          "cylinder": cylinder, "sphere": sphere, "mesh": mesh}
+for _name, _kind_of in KINDS.items():
+    part_kinds.register(_name, _kind_of)
