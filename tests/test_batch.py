@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 
 import cadpipe
 from cadpipe import Path, Pipe, splice
-from cadpipe.geometry.clearance import (RIGHT_ANGLE, _units_meet, distant_pairs, reach,
-                                       segment_distance)
+from cadpipe.core.distance import segment_distance
+from cadpipe.geometry.clearance import RIGHT_ANGLE, _units_meet, distant_pairs, reach
 from cadpipe.geometry.loft import Surface
 from cadpipe.geometry.surfaces import tubes_of
 from cadpipe.geometry.ragged import Groups
@@ -123,7 +123,7 @@ def brute_force_pairs(tubes):
             bent &= (turn[-1] - forward >= RIGHT_ANGLE) & ~((i == 0) & (j == m - 1))
         i, j = i[bent] + lo, j[bent] + lo
         d = segment_distance(lines.xyz[:, i], lines.segments[:, i], lines.xyz[:, j],
-                             lines.segments[:, j])
+                             lines.segments[:, j], axis=0)
         close = d < rad[i - lo] + rad[j - lo]
         i, j = i[close], j[close]
         meet = _units_meet(tubes, i, j)

@@ -25,7 +25,8 @@ from functools import partial
 import numpy as np
 
 from cadpipe import limits
-from cadpipe.core.vec import dot, norm
+from cadpipe.core.kernels import native
+from cadpipe.core.vec import norm
 
 #: findings described per tube and kind of fold
 MAX_FINDINGS = 10
@@ -196,109 +197,21 @@ def reach(tubes):
                                        np.maximum(tubes.miter_stretch, 1.0))
 
 
-def segment_distance(p, u, q, v):
-    """Closest distance between segments ``p + s u`` and ``q + t v`` (s, t in [0, 1];
-    a segment may be a point).
-
-    Parameters
-    ----------
-    p, u, q, v : (3, P) float
-        Segment starts and vectors, component-first.
-
-    Returns
-    -------
-    (P,) float
-    """
-    w = p - q
-    a, b, c = dot(u, u, 0), dot(u, v, 0), dot(v, v, 0)
-    d, e = dot(u, w, 0), dot(v, w, 0)
-    den = a * c - b * b
-    zero = np.zeros_like(a)
-    s = np.divide(b * e - c * d, den, out=zero.copy(), where=den > 1e-12 * a * c).clip(0.0, 1.0)
-    t = np.divide(b * s + e, c, out=zero.copy(), where=c > 0).clip(0.0, 1.0)
-    s = np.divide(b * t - d, a, out=zero.copy(), where=a > 0).clip(0.0, 1.0)
-    return norm(w + s * u - t * v, 0)
-
-
-def _point_segment_distance(x, p, u):
-    """(P,) distance from points ``x`` to segments ``p + s u``, all (3, P)."""
-    w = x - p
-    uu = dot(u, u, 0)
-    s = np.divide(dot(w, u, 0), uu, out=np.zeros_like(uu), where=uu > 0)
-    np.clip(s, 0.0, 1.0, out=s)
-    w -= s * u
-    return norm(w, 0)
-
-
-class _CapsuleTree:
-    """Capsules over runs of consecutive segments of a batch, level by level.
-
-    Level 0 holds one capsule per column (its segment, radius its reach; an open
-    tube's last column repeats its last segment, ``real`` is False there). Level 1
-    holds runs of :data:`RUN` columns, each bounded by the ball about its chord's
-    middle that holds every point of its columns (cheap: one distance per point);
-    each level above pairs the nodes of the one below (a lone last node moves up as
-    it is). A node holds leaf positions ``lo..hi``, its chord runs from its first
-    segment's start to its last one's end, and its radius bounds the distance of
-    every leaf capsule below it from that chord (distance to a segment is convex, so
-    the end points of a child's chord bound it; the outer ones lie on the chord).
-    """
-
-    def __init__(self, tubes):
-        lines = tubes.lines
-        groups = lines.groups
-        self.real = _is_segment(groups)
-        r = reach(tubes)
-        self.reach = np.maximum(r, groups.following(r))           # per column: its segment's
-        size = groups.size
-        lo = np.arange(size)
-        start, seg = lines.xyz, lines.segments
-        self.levels = [(lo, lo, start, seg, self.reach)]        # level 0: segment vectors
-        lo = np.arange(0, size, RUN)
-        hi = np.minimum(lo + RUN - 1, size - 1)
-        a, b = start[:, lo], start[:, hi] + seg[:, hi]
-        middle = 0.5 * (a + b)
-        # a column's end is the next one's start (but around a closed tube's seam), so
-        # the starts and each run's end bound its points; whole runs as a (3, G, RUN) view
-        whole = size // RUN
-        far = np.empty(len(lo))
-        head = start[:, :whole * RUN].reshape(3, whole, RUN) - middle[:, :whole, None]
-        far[:whole] = np.sqrt(np.einsum("i...,i...->...", head, head).max(axis=1))
-        if whole < len(lo):
-            far[whole:] = norm(start[:, whole * RUN:] - middle[:, -1:], 0).max()
-        seam = groups.last[groups.closed]
-        at = seam // RUN
-        np.maximum.at(far, at, norm(start[:, seam] + seg[:, seam] - middle[:, at], 0))
-        radius = (np.maximum(far, 0.5 * norm(b - a, 0)) + np.maximum.reduceat(self.reach, lo))
-        self.levels.append((lo, hi, a, b, radius))
-        while len(self.levels[-1][0]) > 1:
-            lo, hi, a, b, rad = self.levels[-1]
-            pairs = len(lo) // 2
-            a0, b0, a1, b1 = a[:, 0:2 * pairs:2], b[:, 0:2 * pairs:2], a[:, 1::2], b[:, 1::2]
-            chord = b1 - a0
-            bound = np.maximum(_point_segment_distance(b0, a0, chord),
-                               _point_segment_distance(a1, a0, chord))
-            radius = np.maximum(rad[0:2 * pairs:2], rad[1::2]) + bound
-            if len(lo) % 2:                                       # the lone last node
-                a0, b1 = np.concatenate([a0, a[:, -1:]], 1), np.concatenate([b1, b[:, -1:]], 1)
-                radius = np.concatenate([radius, rad[-1:]])
-            self.levels.append((lo[::2], hi[1::2] if len(lo) % 2 == 0 else
-                                np.concatenate([hi[1::2], hi[-1:]]), a0, b1, radius))
-
-
-#: columns per node of the capsule tree's first level above the segments
-RUN = 8
-
-
 def distant_pairs(tubes, first_only=False):
     """Segment column pairs ``(i, j)``, ``i < j``, of one tube each, where the tube
-    comes back to itself: their capsules overlap and so do their convex units.
+    comes back to itself: closer than their reaches (:func:`reach`) although the path
+    between them turns by a right angle or more, and their convex units overlap.
 
-    The tree is walked level by level, a frontier of node pairs at a time; a frontier
-    larger than :data:`FRONTIER` (:data:`FIRST_FRONTIER` for a yes/no) is split and its
-    parts walked down one after the other (depth first), so memory stays bounded and,
-    with ``first_only``, the walk stops at the first pair of units that meet (all a
-    yes/no needs).
+    The candidates come from one compiled walk of a tree of the segments' boxes
+    (widened by their reach) against itself (``csrc/clearance.c``): a node pair is
+    dropped when its boxes are apart, or when the stretch of path joining it turns by
+    less than a right angle; a leaf pair is kept when its segments come closer than
+    their reaches. So the walk costs what the pairs within reach of each other cost,
+    not what the path's length over its radius does (a coil whose turns lie within
+    reach of each other: a few node pairs per segment). The candidates of each tube are
+    counted against :attr:`cadpipe.limits.Limits.max_swept_segments` before their
+    units are tested, the search's costly part. With ``first_only`` the units are
+    tested a block at a time until a pair meets (all a yes/no needs).
 
     Returns ``(i, j, distance)`` as (P,) arrays sorted by ``i`` then ``j``, and the
     (K,) sorted segment columns of all of them (the stretches a union must merge).
@@ -309,128 +222,26 @@ def distant_pairs(tubes, first_only=False):
     total = groups.sums(lines.turning_angles)
     if groups.size < 3 or (total < RIGHT_ANGLE).all():         # no tube can come back
         return empty, empty, np.empty(0), empty
-    tree = _CapsuleTree(tubes)
-    turning = np.cumsum(lines.turning_angles)                       # C[k]: points 0..k
-    top = len(tree.levels) - 1
-    found = []
-    budget = None if first_only else _SweptBudget(groups)
-    root = np.zeros(1, np.int64)
-    stack = [(top, *_kept(tree, groups, turning, total, top, root, root))]
-    while stack:
-        level, a, b = stack.pop()
-        if level == 0:
-            hit = _leaf_hits(tubes, tree, a, b, first_only, budget)
-            found.append(hit)
-            if first_only and len(hit[0]):
-                break
-            continue
-        a, b = _children(tree, level, a, b)
-        a, b = _kept(tree, groups, turning, total, level - 1, a, b)
-        size = FIRST_FRONTIER if first_only else FRONTIER
-        stack.extend((level - 1, a[k:k + size], b[k:k + size])
-                     for k in reversed(range(0, len(a), size)))
-    i, j, dist = (np.concatenate(x) for x in zip(*found)) if found else (empty, empty,
-                                                                          np.empty(0))
+    r = reach(tubes)
+    _, following = _neighbours(groups, np.arange(groups.size))
+    budget = limits.current().max_swept_segments
+    i, j, dist, over = native.near_segment_pairs(
+        np.ascontiguousarray(lines.xyz.T), np.ascontiguousarray(lines.segments.T),
+        np.ascontiguousarray(np.maximum(r, groups.following(r))), _is_segment(groups),
+        np.ascontiguousarray(groups.index, np.int64), following,
+        np.cumsum(lines.turning_angles), np.ascontiguousarray(groups.closed, bool),
+        np.ascontiguousarray(total, np.float64), RIGHT_ANGLE, budget)
     order = np.lexsort((j, i))
     i, j, dist = i[order], j[order], dist[order]
-    return i, j, dist, np.unique(np.concatenate([i, j]))
-
-
-class _SweptBudget:
-    """The pairs of segments of each tube that the search has found within reach of
-    each other so far (the candidates whose units it tests), against
-    :attr:`cadpipe.limits.Limits.max_swept_segments`: the search stops with a
-    :class:`~cadpipe.errors.LimitError` once a tube passes it, before testing them,
-    since the tests, the findings and the union that follows grow with them (a coil
-    whose turns are closer than its diameter: a hundred pairs per segment)."""
-
-    def __init__(self, groups):
-        self.tube = groups.index
-        self.counts = np.zeros(len(groups), np.int64)
-
-    def spend(self, i, j):
-        if not len(i):
-            return
-        self.counts += np.bincount(self.tube[i], minlength=len(self.counts))
-        tube = int(np.argmax(self.counts))
-        where = {"index": tube} if len(self.counts) > 1 else {}
-        limits.check("max_swept_segments", float(self.counts[tube]),
+    hit = _units_meet(tubes, i, j, first_only)
+    if over >= 0 and not (first_only and hit.any()):
+        where = {"index": int(over)} if len(groups) > 1 else {}
+        limits.check("max_swept_segments", float(budget) + 1,
                      "the search for the swept solid of a tube whose path comes back "
                      "within its own reach (segment pairs to test)", at_least=True, key="path",
                      **where)
-
-
-#: node pairs walked down at once by :func:`distant_pairs` (bounds its memory); fewer
-#: for a yes/no, which the first pair of meeting units settles
-FRONTIER = 1 << 16
-FIRST_FRONTIER = 1 << 10
-
-
-def _children(tree, level, a, b):
-    """The node pairs one level below ``level``'s pairs ``(a, b)`` (each node's
-    children against the other's; a node against itself only once per pair)."""
-    if level == 1:                                               # runs into their columns
-        run_lo, run_hi = tree.levels[1][:2]
-        di, dj = (x.reshape(-1) for x in np.meshgrid(np.arange(RUN), np.arange(RUN),
-                                                     indexing="ij"))
-        ca, cb = run_lo[a][:, None] + di, run_lo[b][:, None] + dj
-        keep = (ca <= run_hi[a][:, None]) & (cb <= run_hi[b][:, None]) & (
-            (a != b)[:, None] | (ca < cb))
-        return ca[keep], cb[keep]
-    count = len(tree.levels[level - 1][0])
-    same = a == b
-    ca = np.stack([2 * a, 2 * a, 2 * a + 1, 2 * a + 1], 1)
-    cb = np.stack([2 * b, 2 * b + 1, 2 * b, 2 * b + 1], 1)
-    keep = (ca < count) & (cb < count) & ~(same[:, None] & (ca > cb))
-    return ca[keep], cb[keep]
-
-
-def _kept(tree, groups, turning, total, level, a, b):
-    """The node pairs ``(a, b)`` at ``level`` that may hold a fold: each within one
-    tube, their capsules meeting, and the stretch of path between them turning by at
-    least a right angle (around a closed tube, either way)."""
-    lo, hi, start, end, radius = tree.levels[level]
-    leaf_tube = groups.index
-    la, ha, lb, hb = lo[a], hi[a], lo[b], hi[b]
-    ta, tb = leaf_tube[la], leaf_tube[hb]
-    one = (ta == leaf_tube[ha]) & (tb == leaf_tube[lb])     # each within one tube
-    keep = ~one | (ta == tb)
-    if level:
-        gap = segment_distance(start[:, a], end[:, a] - start[:, a],
-                               start[:, b], end[:, b] - start[:, b])
-    else:                                                    # end holds the segments
-        gap = segment_distance(start[:, a], end[:, a], start[:, b], end[:, b])
-    keep &= gap < radius[a] + radius[b]
-    # the stretch joining the two runs turns by at most `most`, around a closed
-    # tube the other way by at least total - `least`
-    most = turning[np.maximum(ha, hb)] - turning[la]
-    least = np.where(lb > ha, turning[lb] - turning[ha], 0.0)
-    closed = groups.closed[ta]
-    straight = (most < RIGHT_ANGLE) | (closed & (total[ta] - least < RIGHT_ANGLE))
-    keep &= ~(one & (ta == tb) & straight)
-    return a[keep], b[keep]
-
-
-def _leaf_hits(tubes, tree, a, b, first_only, budget=None):
-    """``(i, j, distance)`` of the segment column pairs ``(a, b)`` (kept at the leaves)
-    whose convex units meet: real segments of one tube, not neighbours, closer than
-    their reaches. The segments closer than their reaches are spent from ``budget``
-    (a :class:`_SweptBudget`) before their units are tested, the search's costly part."""
-    groups = tubes.lines.groups
-    keep = (a != b) & (groups.index[a] == groups.index[b]) & tree.real[a] & tree.real[b]
-    i, j = a[keep], b[keep]
-    _, next_i = _neighbours(groups, i)
-    _, next_j = _neighbours(groups, j)
-    keep = (next_i != j) & (next_j != i)                           # not adjacent
-    i, j = i[keep], j[keep]
-    xyz, seg, r = tubes.lines.xyz, tubes.lines.segments, tree.reach
-    dist = segment_distance(xyz[:, i], seg[:, i], xyz[:, j], seg[:, j])
-    close = dist < r[i] + r[j]
-    i, j, dist = i[close], j[close], dist[close]
-    if budget is not None:
-        budget.spend(i, j)
-    hit = _units_meet(tubes, i, j, first_only)
-    return i[hit], j[hit], dist[hit]
+    i, j, dist = i[hit], j[hit], dist[hit]
+    return i, j, dist, np.unique(np.concatenate([i, j]))
 
 
 #: unit pairs tested at once by :func:`_units_meet` (bounds its memory)

@@ -24,7 +24,7 @@ from cadpipe.errors import InputError, MeshError
 from cadpipe.geometry.topology import closed, connected_labels, edge_table
 from cadpipe.geometry.winding import WindingTree
 from cadpipe.core import formats
-from cadpipe.core.transform import as_matrix
+from cadpipe.core.transform import as_matrix, placed_points
 
 
 def winding_numbers(triangles: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -542,10 +542,12 @@ class Mesh:
         Returns
         -------
         mesh : Mesh
+            ``self`` for the identity.
         """
         matrix = as_matrix(matrix)
-        vertices = self._vertices @ matrix[:3, :3].T
-        vertices += matrix[:3, 3]                 # in place: one copy of the vertices, not two
+        if np.array_equal(matrix, np.eye(4)):
+            return self
+        vertices = placed_points(self._vertices, matrix)     # one compiled pass, no BLAS
         faces = self._faces if np.linalg.det(matrix[:3, :3]) >= 0 else self._faces[:, ::-1]
         vertices.flags.writeable = False          # ours alone: checked, not copied
         moved = Mesh(vertices, faces, face_part=self._face_part, part_names=self._part_names,

@@ -21,7 +21,7 @@ from cadpipe._validate import as_points, as_positive
 from cadpipe.core.vec import cross, dot, norm, unit
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.ragged import Groups, blocks
-from cadpipe.core.transform import as_matrix
+from cadpipe.core.transform import as_matrix, placed_points
 
 #: consecutive points closer than this fraction of the path's extent are merged
 DUPLICATE_TOLERANCE = 1e-9
@@ -297,7 +297,7 @@ class Path:
         path : Path
         """
         m = as_matrix(matrix)
-        return Path(self._points @ m[:3, :3].T + m[:3, 3], closed=self._closed)
+        return Path(placed_points(self._points, m), closed=self._closed)
 
     # -- fitted curves -------------------------------------------------------
     @classmethod

@@ -17,6 +17,7 @@ import numpy as np
 
 from cadpipe import limits
 from cadpipe._validate import as_choice, as_int, as_positive
+from cadpipe.core.distance import segment_distance
 from cadpipe.core.vec import cross
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.frames import FRAME_MODES, MAX_TWIST_STEP, as_direction
@@ -24,7 +25,7 @@ from cadpipe.geometry.loft import Surface
 from cadpipe.geometry.bands import band_triangles, clearance
 from cadpipe.geometry.cover import piece_covers, segment_covers
 from cadpipe.geometry.clearance import (Folds, local_folds,
-                                        piece_meets_units, reach, segment_distance)
+                                        piece_meets_units, reach)
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.geometry.path import Path
 from cadpipe.geometry.pieces import runs, unit_pieces, unit_points
@@ -488,7 +489,7 @@ class Pipe:
             cols = np.delete(np.arange(count), seg)
             gap = segment_distance(np.broadcast_to(centre[:, None], (3, len(cols))),
                                    np.zeros((3, len(cols))), lines.xyz[:, cols],
-                                   lines.segments[:, cols])
+                                   lines.segments[:, cols], axis=0)
             cols = cols[gap < size + reach_seg[cols]]
             hit = cols[piece_meets_units(tubes, points, cols)]
             if hit.size:

@@ -26,6 +26,7 @@ from cadpipe.io.files import atomic_path
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.io.raster import rasterize
 from cadpipe.core.color import parse_color
+from cadpipe.core.transform import placed_points
 from cadpipe.solids.scene import as_scene
 
 #: named camera directions as (azimuth, elevation) in degrees; azimuth from +X
@@ -183,7 +184,9 @@ def _shade(drawn, rotation, width, height):
     from scipy.ndimage import binary_dilation
 
     mesh = drawn.mesh
-    camera = mesh.vertices @ rotation.T
+    turn = np.eye(4)
+    turn[:3, :3] = rotation
+    camera = placed_points(mesh.vertices, turn)
     used = camera[np.bincount(mesh.faces.ravel(), minlength=len(camera)) > 0]
     lo, hi = used.min(axis=0), used.max(axis=0)
     extent = np.maximum(hi - lo, 1e-6 * max((hi - lo).max(), 1e-9))   # flat or tiny scenes
@@ -192,7 +195,7 @@ def _shade(drawn, rotation, width, height):
     screen = np.column_stack([width / 2 + (camera[:, 0] - middle[0]) * scale,
                               height / 2 - (camera[:, 1] - middle[1]) * scale,
                               (middle[2] - camera[:, 2]) * scale])      # depth in pixels
-    normals = mesh.face_normals @ rotation.T
+    normals = np.array(placed_points(mesh.face_normals, turn))     # shaded in place below
     drawn_faces = np.flatnonzero(~drawn.solid | (normals[:, 2] > 0))   # skip hidden backs
     index, depth = rasterize(screen[mesh.faces[drawn_faces]], width, height)
     index = np.where(index >= 0, drawn_faces[index], -1)

@@ -38,6 +38,7 @@ from cadpipe._validate import as_choice
 from cadpipe.errors import ExportError, MeshError
 from cadpipe.core import formats
 from cadpipe.core.formats import suffix_of
+from cadpipe.core.transform import placed_points
 from cadpipe.core.units import UNITS
 from cadpipe.io.files import atomic_path, file_mesh
 from cadpipe.io.flatten import labelled
@@ -467,7 +468,9 @@ def read_usd(path):
         limits.check("max_triangles", triangles, "reading this USD file", file=path)
         faces, polygon = fan_triangles(counts, indices)
         world = np.array(geom.ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
-        vertices = (points @ world[:3, :3].T + world[:3, 3]) @ (turn * scale).T
+        placement = np.eye(4)
+        placement[:3] = (turn * scale) @ world[:3]
+        vertices = placed_points(points, placement)
         if np.linalg.det(world[:3, :3]) < 0:
             faces = faces[:, ::-1]
         if geom.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded:
