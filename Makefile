@@ -1,34 +1,47 @@
-# Two commands a user needs: `make demo` and `make test`. Both set up .venv on first use.
+# Two commands a user needs: `make demo` and `make test`. Both set up .venv on first use,
+# each installing only what it needs: the package for the demo, its test extra (the
+# consumers and references the tests check against) for the tests, and the benchmark
+# peers only for `make bench`.
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
-STAMP  := $(VENV)/.installed-stamp
+BASE   := $(VENV)/.base-stamp
+TESTS  := $(VENV)/.test-stamp
+BENCH  := $(VENV)/.bench-stamp
 OUT    ?= out/demo
 
 .PHONY: demo test bench clean chromium consumers
 
-$(STAMP): pyproject.toml setup.py
+$(BASE): pyproject.toml setup.py
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip 'setuptools>=77' wheel
+	$(PY) -m pip install --quiet -e .
+	touch $@
+
+$(TESTS): $(BASE)
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $@
+
+$(BENCH): $(TESTS)
 	$(PY) -m pip install --quiet -e '.[test,bench]'
-	touch $(STAMP)
+	touch $@
 
 # the compiled kernels, built again whenever a C source changes (cadpipe.core.kernels
 # refuses to run kernels built from other sources)
 KERNELS := $(VENV)/.kernels-stamp
-$(KERNELS): $(STAMP) $(wildcard cadpipe/core/csrc/*)
+$(KERNELS): $(BASE) $(wildcard cadpipe/core/csrc/*)
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $@
 
-demo: $(STAMP) $(KERNELS)
+demo: $(BASE) $(KERNELS)
 	$(VENV)/bin/cadpipe demo -o $(OUT)
 
 # ruff's rule set is in pyproject.toml; slow cases run too, spread over the cores
-test: $(STAMP) $(KERNELS) chromium consumers
+test: $(TESTS) $(KERNELS) chromium consumers
 	$(VENV)/bin/ruff check cadpipe tests benchmarks examples
 	$(PY) -m pytest -n auto
 
-bench: $(STAMP) $(KERNELS)
+bench: $(BENCH) $(KERNELS)
 	for f in benchmarks/bench_*.py; do $(PY) $$f || exit 1; done
 
 # headless browser that tests/test_preview.py drives (Debian's package; needs root to install)

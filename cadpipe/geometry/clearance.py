@@ -225,7 +225,7 @@ def distant_pairs(tubes, first_only=False):
     r = reach(tubes)
     _, following = _neighbours(groups, np.arange(groups.size))
     budget = limits.current().max_swept_segments
-    i, j, dist, over = native.near_segment_pairs(
+    i, j, dist, over = native.fold_pairs(
         np.ascontiguousarray(lines.xyz.T), np.ascontiguousarray(lines.segments.T),
         np.ascontiguousarray(np.maximum(r, groups.following(r))), _is_segment(groups),
         np.ascontiguousarray(groups.index, np.int64), following,

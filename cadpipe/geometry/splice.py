@@ -20,6 +20,7 @@ import numpy as np
 
 from cadpipe import limits
 from cadpipe._validate import as_choice, as_flag
+from cadpipe.core.kernels import native
 from cadpipe.core.vec import norm
 from cadpipe.errors import GeometryError, InputError
 from cadpipe.geometry.loft import Surface, fan_faces, zipper_faces
@@ -233,7 +234,7 @@ def chain_mesh(pipes, joint, transition, closed, tubes=None, bridges=None):
     folds = _pipe_folds(pipes, tubes, cap_start, cap_end)
     swept = [i for i, f in enumerate(folds) if f]
     crossing = [] if joint.any() or swept else _crossing_pieces(
-        _chain_axes(tubes, bridges, before, pipes, closed, surface), closed)
+        _chain_segments(tubes, bridges, before, pipes, closed, surface), closed)
     if not crossing and not joint.any() and not swept:
         return Mesh.trusted(vertices, faces, face_part=face_part,
                             part_names=surface.part_names, attributes=attributes)
@@ -435,105 +436,68 @@ def _add_transitions(surface, bridges, before, after, ends, pipe_sides, mode):
 
 
 # -- pieces against each other --------------------------------------------------------
-def _chain_axes(tubes, bridges, before, pipes, closed, surface):
-    """The chain's pieces in order along it (pipe 0, transition 0, pipe 1, ...): per
-    piece its part index, axis points ``(n, 3)`` and reach ``(n,)`` (how far its
-    surface lies from each point: ring radius times miter stretch, and at the chain's
-    ends the hypotenuse with the cap's reach)."""
-    pieces = []
-    for lines, groups, radii, names in (
-            (tubes.lines, tubes.groups, tubes.ring_radii * tubes.miter_stretch,
-             [f"pipe{i}" for i in range(len(pipes))]),
-            (bridges.lines, bridges.groups, bridges.ring_radii * bridges.miter_stretch,
-             [f"transition{b}" for b in before.tolist()])):
-        for name, lo, hi in zip(names, groups.first.tolist(), groups.last.tolist()):
-            pieces.append([surface.part(name), lines.xyz[:, lo:hi + 1].T, radii[lo:hi + 1]])
-    if not closed:
-        for row, reach in ((0, pipes[0].cap_reach[0]), (-1, pipes[-1].cap_reach[1])):
-            piece = pieces[0 if row == 0 else len(pipes) - 1]
-            piece[2] = piece[2].copy()
-            piece[2][row] = np.hypot(piece[2][row], reach)
-    order = np.empty(len(pieces), np.int64)            # pipes and transitions interleaved
-    order[0::2] = np.arange(len(pipes))
-    order[1::2] = len(pipes) + np.arange(len(before))
-    return [pieces[i] for i in order.tolist()]
+def _chain_segments(tubes, bridges, before, pipes, closed, surface):
+    """The chain's segments in order along it (pipe 0, transition 0, pipe 1, ...): per
+    segment its start (S, 3), vector (S, 3), reach (S,) and part index (S,). A segment's
+    reach is the larger of its ends' (how far the surface lies from each axis point:
+    ring radius times miter stretch, and at an open chain's ends the hypotenuse with the
+    cap's reach). Each batch's segments go straight to their places along the chain."""
+    batches = [(tubes, [f"pipe{i}" for i in range(len(pipes))], 2 * np.arange(len(pipes)))]
+    if bridges is not None:
+        batches.append((bridges, [f"transition{b}" for b in before.tolist()],
+                        2 * np.arange(len(before)) + 1))
+    sizes = np.zeros(2 * len(pipes), np.int64)
+    for batch, _, rank in batches:
+        sizes[rank] = batch.groups.counts - 1            # an open piece's points less one
+    offsets = np.cumsum(sizes) - sizes
+    count = int(sizes.sum())
+    start, seg, reach = np.empty((count, 3)), np.empty((count, 3)), np.empty(count)
+    part = np.empty(count, np.int64)
+    for batch, names, rank in batches:
+        groups = batch.groups
+        radii = batch.ring_radii * batch.miter_stretch
+        if batch is tubes and not closed:
+            radii = radii.copy()
+            first, last = groups.first[0], groups.last[-1]
+            radii[first] = np.hypot(radii[first], pipes[0].cap_reach[0])
+            radii[last] = np.hypot(radii[last], pipes[-1].cap_reach[1])
+        has_segment = np.ones(groups.size, bool)
+        has_segment[groups.last] = False             # an open piece's last point
+        cols = np.flatnonzero(has_segment)
+        owner = groups.index[cols]
+        at = offsets[rank[owner]] + cols - groups.first[owner]
+        xyz = batch.lines.xyz
+        start[at] = xyz[:, cols].T
+        seg[at] = batch.lines.segments[:, cols].T
+        reach[at] = np.maximum(radii[cols], radii[cols + 1])
+        part[at] = np.array([surface.part(name) for name in names], np.int64)[owner]
+    return start, seg, reach, part
 
 
-def _crossing_pieces(pieces, closed):
+def _crossing_pieces(segments, closed):
     """``[(i, j)]`` parts ``i < j`` whose tubes may cut through each other.
 
-    Each piece is a chain of segments, each held by the capsule of its ends' larger
-    reach. Broad phase: boxes of runs of segments (about a reach long), through a
-    box hierarchy; narrow phase: the distance between the segments of boxes that
-    meet. Segments of different pieces count when they come closer than their
+    Each segment of the chain (:func:`_chain_segments`) is held by the capsule of its
+    reach. Segments of different pieces count when they come closer than their
     reaches' sum while lying at least ``pi/2`` times that sum apart along the chain:
     nearer ones are neighbours across a junction, kept apart by the checks of each
-    piece and of each transition's ends (a tube that bends no tighter than its
-    radius cannot come back to itself within half a turn).
+    piece and of each transition's ends (a tube that bends no tighter than its radius
+    cannot come back to itself within half a turn). One compiled walk of a tree of the
+    segments against itself (``csrc/clearance.c``), which stops looking at two pieces
+    once they are known to cross: it costs what the pieces that come near each other
+    cost, not a pass over all pairs.
     """
-    from cadpipe.solids.intersect import box_pairs
-
-    part = np.concatenate([np.full(len(p) - 1, k) for k, (_, p, _) in enumerate(pieces)])
-    a = np.concatenate([p[:-1] for _, p, _ in pieces])
-    b = np.concatenate([p[1:] for _, p, _ in pieces])
-    radius = np.concatenate([np.maximum(r[:-1], r[1:]) for _, _, r in pieces])
-    length = norm(b - a)
-    arc = np.cumsum(length) - length                       # each segment's start along the chain
-    total = float(length.sum())
-    # runs of segments about a reach long (at least one), per piece
-    reach = np.array([float(r.min()) for _, _, r in pieces])[part]
-    run_key = part * (1 << 31) + np.floor((arc - arc[np.searchsorted(part, part)])
-                                          / reach).astype(np.int64)
-    first = np.flatnonzero(np.r_[True, run_key[1:] != run_key[:-1]])
-    pad = np.maximum.reduceat(radius, first)
-    thin = np.minimum.reduceat(radius, first)
-    stop = np.r_[first[1:], len(a)]
-    span = np.c_[arc[first], arc[stop - 1] + length[stop - 1]]   # each run along the chain
-    lo = np.minimum.reduceat(np.minimum(a, b), first, axis=0) - pad[:, None]
-    hi = np.maximum.reduceat(np.maximum(a, b), first, axis=0) + pad[:, None]
-    found = set()
-    overlapping = box_pairs(lo, hi)
-    for start in range(0, len(overlapping), 1 << 16):      # bounded memory per chunk
-        pairs = overlapping[start:start + (1 << 16)]
-        pairs = pairs[part[first[pairs[:, 0]]] != part[first[pairs[:, 1]]]]
-        # runs whose farthest segments lie nearer along the chain than the least
-        # distance that counts hold no pair that counts
-        farthest = np.maximum(span[pairs[:, 1], 1] - span[pairs[:, 0], 0],
-                              span[pairs[:, 0], 1] - span[pairs[:, 1], 0])
-        pairs = pairs[farthest >= 0.5 * np.pi * (thin[pairs[:, 0]] + thin[pairs[:, 1]])]
-        if not len(pairs):
-            continue
-        # every segment of one run against every segment of the other
-        size_i, size_j = (stop - first)[pairs[:, 0]], (stop - first)[pairs[:, 1]]
-        count = size_i * size_j
-        row = np.repeat(np.arange(len(pairs)), count)
-        k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
-        i = first[pairs[row, 0]] + k // size_j[row]
-        j = first[pairs[row, 1]] + k % size_j[row]
-        apart = np.abs(arc[i] - arc[j])
-        if closed:
-            apart = np.minimum(apart, total - apart)
-        near = _segment_distance(a[i], b[i], a[j], b[j]) < radius[i] + radius[j]
-        hit = near & (apart - length[np.where(arc[i] < arc[j], i, j)]
-                      >= 0.5 * np.pi * (radius[i] + radius[j]))
-        found.update(zip(part[i[hit]].tolist(), part[j[hit]].tolist()))
-    return sorted({tuple(sorted((pieces[p][0], pieces[q][0]))) for p, q in found})
-
-
-def _segment_distance(p0, p1, q0, q1):
-    """(K,) distance between segments ``p0-p1`` and ``q0-q1`` (each (K, 3))."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e = np.einsum("ij,ij->i", d1, d1), np.einsum("ij,ij->i", d2, d2)
-    b, c, f = (np.einsum("ij,ij->i", d1, d2), np.einsum("ij,ij->i", d1, r),
-               np.einsum("ij,ij->i", d2, r))
-    denom = a * e - b * b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(denom > 1e-12 * a * e, np.clip((b * f - c * e) / denom, 0, 1), 0.0)
-        t = np.where(e > 0, (b * s + f) / e, 0.0)
-        s = np.where(t < 0, np.where(a > 0, np.clip(-c / a, 0, 1), 0.0),
-                     np.where(t > 1, np.where(a > 0, np.clip((b - c) / a, 0, 1), 0.0), s))
-    t = np.clip(t, 0, 1)
-    return norm(p0 + s[:, None] * d1 - q0 - t[:, None] * d2)
+    start, seg, reach, part = segments
+    length = norm(seg)
+    arc = np.cumsum(length) - length                  # each segment's start along the chain
+    budget = limits.current().max_swept_segments
+    i, j, _, over = native.crossing_pairs(start, seg, reach, part, arc, length,
+                                          float(length.sum()) if closed else 0.0, budget)
+    if over >= 0:
+        limits.check("max_swept_segments", float(budget) + 1,
+                     "the search for pieces of a chain that cross (piece pairs)",
+                     at_least=True, key="pipes")
+    return sorted({(int(min(p, q)), int(max(p, q))) for p, q in zip(part[i], part[j])})
 
 
 def _cuts(tubes, bridges, before, after, ends, sides, surface):
