@@ -360,6 +360,10 @@ class Mujoco:
             elif isinstance(obj, Pipe):
                 chain = as_body(obj, name).chain
                 for a, b, r in zip(chain.starts, chain.ends, chain.start_radii):
+                    if np.linalg.norm(b - a) < 1e-9:     # a ball: MuJoCo 4 refuses the capsule
+                        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, pos=a,
+                                                size=[r, 0, 0])
+                        continue
                     spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_CAPSULE,
                                             fromto=np.r_[a, b], size=[r, 0, 0])
             else:

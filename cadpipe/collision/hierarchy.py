@@ -25,17 +25,18 @@ The tree is perfect (every leaf at the same depth, some empty) in heap order,
 so :func:`chain_gaps` walks both trees without looking children up (node
 ``k``'s are ``2k + 1``, ``2k + 2``), splitting the larger node of each pair
 (splitting both at once tested about three times as many pairs): a compiled
-depth-first walk per pose (numba; one pose costs one call, not the ~60 numpy calls a breadth-first
-frontier in numpy took), in which capsule leaf pairs get their exact gap from
-the radii and only tapered leaf pairs go to the exact round-cone gap of
+depth-first walk per pose (``csrc/hierarchy.c``; one call for all poses, not the
+~60 numpy calls per pose a breadth-first frontier in numpy took), in which
+capsule leaf pairs get their exact gap from the radii and only tapered leaf
+pairs go to the exact round-cone gap of
 :func:`cadpipe.collision.capsules.unit_pair_gap`, batched over all poses.
 """
 
 
-import numba
 import numpy as np
 
 from cadpipe.collision.capsules import inverse, unit_pair_gap
+from cadpipe.core.kernels import native
 from cadpipe.geometry.ragged import Groups
 
 #: poses per call of the compiled walk (bounds the buffer of leaf pairs left over)
@@ -117,9 +118,9 @@ class CapsuleTree:
         self.chord = self.points[self.p1] - self.start
         self.chord_sq = np.einsum("ij,ij->i", self.chord, self.chord)
         self.inv_chord_sq = inverse(self.chord_sq)
-        # the walk's view, packed so one call passes few arrays (numba's dispatch
-        # costs about half a microsecond per array argument): per node start, chord,
-        # chord_sq, its inverse, inner, outer; and p0, p1, the leaf's unit (-1 above)
+        # the walk's view, packed so one call passes few arrays: per node start,
+        # chord, chord_sq, its inverse, inner, outer; and p0, p1, the leaf's unit
+        # (-1 above)
         self.table = np.column_stack([self.start, self.chord, self.chord_sq,
                                       self.inv_chord_sq, self.inner, self.outer])
         self.index = np.column_stack([self.p0, self.p1, np.r_[np.full(size - len(leaves), -1),
@@ -175,118 +176,31 @@ def chain_gaps(chain_a, chain_b, poses, stop_below=None):
 def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     """:func:`chain_gaps` for one chunk of poses, into its output slices: the
     compiled walk, then the exact round-cone gap of the tapered leaf pairs it
-    left (capsule leaf pairs it settles itself: their radii are exact)."""
+    left (capsule leaf pairs it settles itself: their radii are exact).
+
+    The walk (``native.chain_walk``) takes both trees for each pose depth first,
+    splitting the larger node of each pair (by chord and outer radius). Per node
+    pair: the chords' closest points (Ericson's clamping, as
+    :func:`~cadpipe.collision.capsules.segment_params`), ``dist``; ``dist - inner -
+    inner`` bounds the gap from above, ``dist - outer - outer`` from below. A
+    yes/no query settles a pose once the upper bound is at most ``stop_below``;
+    otherwise pairs whose lower bound exceeds the best upper bound are dropped.
+    Capsule leaf pairs (inner == outer) give their exact gap; other leaf pairs go
+    to ``left`` for the exact round-cone gap (-1 returned: ``left`` is too small).
+    """
     ta, tb = chain_a.tree, chain_b.tree
     cap = np.inf if stop_below is None else float(stop_below)
     room = 64 * len(poses)
     while True:
         left = np.empty((room, 3), np.int64)         # (pose, unit of a, unit of b)
-        count = walk_trees(ta.table, ta.index, ta.depth, tb.points, tb.table, tb.index,
-                           tb.depth, poses, cap, stop_below is not None, gap, units, params,
-                           left)
+        count = native.chain_walk(ta.table, ta.index, ta.depth, tb.points, tb.table, tb.index,
+                                  tb.depth, poses, cap, stop_below is not None, gap, units,
+                                  params, left)
         if count >= 0:
             break
         room *= 4
     if count:
         _exact(chain_a, chain_b, poses, left[:count], gap, units, params)
-
-
-@numba.njit(cache=True, nogil=True)
-def move_points(m, points, out):
-    """``out`` (K, 3) = ``points`` (K, 3) moved by the rigid 4x4 ``m``, in place."""
-    for k in range(len(points)):
-        for r in range(3):
-            out[k, r] = m[r, 0] * points[k, 0] + m[r, 1] * points[k, 1] \
-                + m[r, 2] * points[k, 2] + m[r, 3]
-
-
-@numba.njit(cache=True, nogil=True)
-def walk_trees(table_a, index_a, depth_a, points_b, table_b, index_b, depth_b, poses, cap,
-               yes_no, gap, units, params, left):
-    """Walk both trees for each pose, depth first, splitting the larger node of
-    each pair (``table``, ``index``: :class:`CapsuleTree`'s packed nodes).
-
-    Per node pair: the chords' closest points (Ericson's clamping, as
-    :func:`segment_params`), ``dist``; ``dist - inner - inner`` bounds the gap
-    from above, ``dist - outer - outer`` from below. A yes/no query (``yes_no``)
-    settles a pose once the upper bound is at most ``cap``; otherwise pairs whose
-    lower bound exceeds the best upper bound are dropped. Capsule leaf pairs
-    (inner == outer) give their exact gap; other leaf pairs go to ``left`` for
-    the exact round-cone gap. Returns how many went there, -1 if ``left`` is
-    too small.
-    """
-    leaves_a, leaves_b = 2 ** depth_a - 1, 2 ** depth_b - 1
-    moved = np.empty((len(points_b), 3))
-    stack_a = np.empty(2 * (depth_a + depth_b + 2), np.int64)
-    stack_b = np.empty(len(stack_a), np.int64)
-    count = 0
-    for p in range(len(poses)):
-        m = poses[p]
-        move_points(m, points_b, moved)
-        bound, best = np.inf, np.inf
-        units[p, 0], units[p, 1], params[p, 0], params[p, 1] = -1, -1, np.nan, np.nan
-        stack_a[0], stack_b[0] = 0, 0
-        top = 1
-        while top:
-            top -= 1
-            na, nb = stack_a[top], stack_b[top]
-            fa, fb = table_a[na], table_b[nb]
-            # scalars throughout: a small array per node pair cost more than its arithmetic
-            k0, k1 = index_b[nb, 0], index_b[nb, 1]
-            x0, y0, z0 = moved[k0, 0], moved[k0, 1], moved[k0, 2]
-            x1, y1, z1 = moved[k1, 0], moved[k1, 1], moved[k1, 2]
-            v0, v1, v2 = x1 - x0, y1 - y0, z1 - z0
-            u0, u1, u2 = fa[3], fa[4], fa[5]
-            rx, ry, rz = fa[0] - x0, fa[1] - y0, fa[2] - z0
-            uu, vv = fa[6], fb[6]
-            uv = u0 * v0 + u1 * v1 + u2 * v2
-            ur = u0 * rx + u1 * ry + u2 * rz
-            vr = v0 * rx + v1 * ry + v2 * rz
-            square = uu * vv
-            den = square - uv * uv
-            s = 0.0
-            if den > 1e-14 * square:
-                s = min(max((uv * vr - ur * vv) / max(den, 1e-300), 0.0), 1.0)
-            t = min(max((uv * s + vr) * fb[7], 0.0), 1.0)
-            s = min(max((uv * t - ur) * fa[7], 0.0), 1.0)
-            dx, dy, dz = rx + s * u0 - t * v0, ry + s * u1 - t * v1, rz + s * u2 - t * v2
-            dist = np.sqrt(dx * dx + dy * dy + dz * dz)
-            upper = dist - fa[8] - fb[8]
-            lower = dist - fa[9] - fb[9]
-            bound = min(bound, max(upper, 0.0))
-            if yes_no and bound <= cap:
-                break
-            if lower > (cap if yes_no else min(bound, best)):
-                continue
-            leaf_a, leaf_b = na >= leaves_a, nb >= leaves_b
-            if leaf_a and leaf_b:
-                ua, ub = index_a[na, 2], index_b[nb, 2]
-                if fa[8] == fa[9] and fb[8] == fb[9]:
-                    if lower < best:                 # capsules: the gap is exact
-                        best = lower
-                        units[p, 0], units[p, 1], params[p, 0], params[p, 1] = ua, ub, s, t
-                    if yes_no and best <= cap:
-                        break
-                else:
-                    if count == len(left):
-                        return -1
-                    left[count, 0], left[count, 1], left[count, 2] = p, ua, ub
-                    count += 1
-                continue
-            # the larger node's children (by chord and outer radius; a leaf stays):
-            # about a third of the node pairs of splitting both at once
-            if not leaf_a and (leaf_b or fa[6] + 4.0 * fa[9] * fa[9]
-                               >= fb[6] + 4.0 * fb[9] * fb[9]):
-                stack_a[top], stack_b[top] = 2 * na + 2, nb
-                stack_a[top + 1], stack_b[top + 1] = 2 * na + 1, nb
-            else:
-                stack_a[top], stack_b[top] = na, 2 * nb + 2
-                stack_a[top + 1], stack_b[top + 1] = na, 2 * nb + 1
-            top += 2
-        if yes_no and min(bound, best) <= cap:       # settled: no closest pair known
-            units[p, 0], units[p, 1], params[p, 0], params[p, 1] = -1, -1, np.nan, np.nan
-        gap[p] = min(bound, best) if yes_no else best
-    return count
 
 
 def _exact(chain_a, chain_b, poses, left, gap, units, params):

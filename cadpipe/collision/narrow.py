@@ -18,50 +18,23 @@ body and never refitted. Touching counts as contact.
 
 from functools import cache
 
-import numba
 import numpy as np
 
 from cadpipe.collision import chain_mesh
-from cadpipe.collision.bounds import KDOP_DIRECTIONS
-from cadpipe.collision.hierarchy import chain_gaps, walk_trees
+from cadpipe.collision.hierarchy import chain_gaps
+from cadpipe.core.kernels import native
+from cadpipe.core.transform import relative
 
 #: stage codes of the exact phase (indices into ``world.STAGES``)
 FCL, CONTAINMENT, ANALYTIC = 6, 7, 8
-#: what :func:`settle` returns for a pair it leaves to the Python narrow phase
+#: what the compiled settle returns for a pair it leaves to the Python narrow phase
 UNSETTLED = -1
-#: room for tapered unit pairs in :func:`settle`'s chain walk (more: left to Python)
-_LEFT = 64
 
-# One pose of one pair costs a few of these compiled loops instead of ~40 numpy calls
-# on (1, 4, 4) arrays (per-state figures in docs/performance.md).
-_jit = numba.njit(cache=True, nogil=True)
-
-
-def relative(pose_a, pose_b):
-    """Poses of b in a's frame, ``inv(pose_a) @ pose_b``, vectorized over leading axes
-    (rigid poses: the inverse is the transposed rotation)."""
-    pose_a, pose_b = np.asarray(pose_a, np.float64), np.asarray(pose_b, np.float64)
-    if pose_a.shape != pose_b.shape:          # own copies: numba warns on broadcast views
-        shape = np.broadcast_shapes(pose_a.shape, pose_b.shape)
-        pose_a, pose_b = (np.broadcast_to(p, shape).copy() for p in (pose_a, pose_b))
-    out = np.empty(pose_a.shape)
-    relative_into(pose_a.reshape(-1, 4, 4), pose_b.reshape(-1, 4, 4), out.reshape(-1, 4, 4))
-    return out
-
-
-@_jit
-def relative_into(pose_a, pose_b, out):
-    """:func:`relative` of (E, 4, 4) poses into ``out`` (E, 4, 4), compiled."""
-    for e in range(len(pose_a)):
-        a, b, o = pose_a[e], pose_b[e], out[e]
-        for r in range(3):
-            for c in range(4):
-                # row r of inv(a) is column r of a's rotation; its shift is -R^T t
-                v = a[0, r] * b[0, c] + a[1, r] * b[1, c] + a[2, r] * b[2, c]
-                if c == 3:
-                    v -= a[0, r] * a[0, 3] + a[1, r] * a[1, 3] + a[2, r] * a[2, 3]
-                o[r, c] = v
-        o[3, 0], o[3, 1], o[3, 2], o[3, 3] = 0.0, 0.0, 0.0, 1.0
+_C = native.collision_constants()
+if (_C["FCL"], _C["CONTAINMENT"], _C["ANALYTIC"], _C["UNSETTLED"]) != \
+        (FCL, CONTAINMENT, ANALYTIC, UNSETTLED):
+    raise ImportError("cadpipe's narrow-phase kernels were built with other stage codes "
+                      "than cadpipe.collision.narrow holds")
 
 
 def _apply(matrix, points):
@@ -119,7 +92,8 @@ def _inside(mesh_body, other, rel):
         return np.zeros(len(rel), bool)
     lo, hi, low, high, slack = mesh_body.inside_filter
     near = np.empty(len(rel), np.bool_)
-    _could_be_inside(rel, other.probes, other.extremes, lo, hi, low, high, slack, near)
+    native.could_be_inside(*(np.ascontiguousarray(v, np.float64) for v in (
+        rel, other.probes, other.extremes, lo, hi, low, high)), float(slack), near)
     if not near.any():
         return near
     near = near.nonzero()[0]
@@ -128,35 +102,6 @@ def _inside(mesh_body, other, rel):
     found = mesh_body.mesh.contains(points.reshape(-1, 3))
     inside[near] = found.reshape(len(near), points.shape[1]).any(axis=1)
     return inside
-
-
-@_jit
-def _could_be_inside(rel, probes, extremes, lo, hi, low, high, slack, out):
-    """``out[e]``: some probe lies in the box ``lo``, ``hi`` and every extreme point
-    within the 18-DOP ``low``, ``high`` (+- ``slack``), all moved by ``rel[e]``."""
-    for e in range(len(rel)):
-        m = rel[e]
-        in_box = False
-        for k in range(len(probes)):
-            inside = True
-            for r in range(3):
-                v = m[r, 0] * probes[k, 0] + m[r, 1] * probes[k, 1] + m[r, 2] * probes[k, 2] \
-                    + m[r, 3]
-                inside = inside and lo[r] <= v <= hi[r]
-            in_box = in_box or inside
-        fits = in_box
-        for k in range(len(extremes)):
-            if not fits:
-                break
-            e0, e1, e2 = extremes[k, 0], extremes[k, 1], extremes[k, 2]
-            x0 = m[0, 0] * e0 + m[0, 1] * e1 + m[0, 2] * e2 + m[0, 3]
-            x1 = m[1, 0] * e0 + m[1, 1] * e1 + m[1, 2] * e2 + m[1, 3]
-            x2 = m[2, 0] * e0 + m[2, 1] * e1 + m[2, 2] * e2 + m[2, 3]
-            for d in range(9):
-                v = KDOP_DIRECTIONS[d, 0] * x0 + KDOP_DIRECTIONS[d, 1] * x1 \
-                    + KDOP_DIRECTIONS[d, 2] * x2
-                fits = fits and low[d] - slack <= v <= high[d] + slack
-        out[e] = fits
 
 
 @cache
@@ -206,62 +151,17 @@ def _mesh_chain(mesh_body, chain_body, rel, yes_no):
 
 
 # -- yes / no, one pose, compiled ------------------------------------------------------
-@_jit
-def settle(w, i, pose_i, j, pose_j, rel):
-    """:func:`collide` of objects ``i`` and ``j`` of the packed world ``w``
-    (:class:`~cadpipe.collision.packed.Packed`) at poses ``pose_i``, ``pose_j``
-    (1, 4, 4), compiled: ``(code, touching)``, the code :data:`ANALYTIC` (two
-    chains), :data:`FCL` (a chain and a mesh) or :data:`UNSETTLED` for what is
-    left to :func:`collide`: two meshes (FCL), a chain that may lie inside a
-    mesh (the probe test), tapered unit pairs the walk does not settle (the
-    exact round-cone gap), a mesh whose triangle tree is not packed. ``rel``
-    (1, 4, 4) is scratch. The same walks on the same relative pose as
-    :func:`collide`, so the same answers.
-    """
-    if w.chain[i] and w.chain[j]:
-        relative_into(pose_i, pose_j, rel)
-        gap, units, params = np.empty(1), np.empty((1, 2), np.int64), np.empty((1, 2))
-        left = np.empty((_LEFT, 3), np.int64)
-        count = walk_trees(w.tree_table[w.tree_at[i]:w.tree_at[i + 1]],
-                           w.tree_index[w.tree_at[i]:w.tree_at[i + 1]], w.tree_depth[i],
-                           w.tree_points[w.tree_points_at[j]:w.tree_points_at[j + 1]],
-                           w.tree_table[w.tree_at[j]:w.tree_at[j + 1]],
-                           w.tree_index[w.tree_at[j]:w.tree_at[j + 1]], w.tree_depth[j], rel,
-                           0.0, True, gap, units, params, left)
-        if count < 0 or (count > 0 and gap[0] > 0.0):   # the round cones decide: Python
-            return UNSETTLED, False
-        return ANALYTIC, gap[0] <= 0.0
-    if not (w.chain[i] or w.chain[j]):
-        return UNSETTLED, False
-    mesh, other = (j, i) if w.chain[i] else (i, j)
-    if w.boxes_at[mesh] == w.boxes_at[mesh + 1]:         # no triangle tree packed
-        return UNSETTLED, False
-    if w.chain[i]:
-        relative_into(pose_j, pose_i, rel)
-    else:
-        relative_into(pose_i, pose_j, rel)
-    gap, unit, near, far = np.empty(1), np.empty(1, np.int64), np.empty((1, 3)), \
-        np.empty((1, 3))
-    chain_mesh.walk(w.mesh_boxes[w.boxes_at[mesh]:w.boxes_at[mesh + 1]],
-                    w.mesh_frames[w.frames_at[mesh]:w.frames_at[mesh + 1]],
-                    w.mesh_triangles[w.triangles_at[mesh]:w.triangles_at[mesh + 1]],
-                    w.mesh_depth[mesh], w.tree_table[w.tree_at[other]:w.tree_at[other + 1]],
-                    w.tree_index[w.tree_at[other]:w.tree_at[other + 1]],
-                    w.tree_points[w.tree_points_at[other]:w.tree_points_at[other + 1]],
-                    w.tree_depth[other], rel, True, gap, unit, near, far)
-    if gap[0] <= 0.0:
-        return FCL, True
-    if not w.closed[mesh]:
-        return FCL, False
-    inside = np.empty(1, np.bool_)
-    _could_be_inside(rel, w.probes[w.probes_at[other]:w.probes_at[other + 1]],
-                     w.extremes[other], w.inside_lo[mesh], w.inside_hi[mesh],
-                     w.inside_low[mesh], w.inside_high[mesh], w.inside_slack[mesh], inside)
-    return (UNSETTLED, False) if inside[0] else (FCL, False)
+# ``settle`` (csrc/narrow.c) is :func:`collide` of one pair of a packed world at one pose,
+# inside the kernels a state or a pose calls (``native.refresh``, ``native.collide_pose``):
+# the code ANALYTIC (two chains), FCL (a chain and a mesh) or UNSETTLED for what is left to
+# :func:`collide`: two meshes (FCL), a chain that may lie inside a mesh (the probe test),
+# tapered unit pairs the walk does not settle (the exact round-cone gap), a mesh whose
+# triangle tree is not packed. The same walks on the same relative pose as :func:`collide`,
+# so the same answers.
 
 
 def packed_arrays(bodies, near_chain):
-    """The arrays of :func:`settle` for every body (fields of
+    """The arrays of the compiled settle for every body (fields of
     :data:`cadpipe.collision.packed.FIELDS`), concatenated: each chain's capsule
     tree, probes and extremes; each closed mesh marked in ``near_chain`` (N,)
     (paired with a chain) its triangle tree and containment prefilter."""

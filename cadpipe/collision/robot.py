@@ -23,7 +23,6 @@ import numpy as np
 from cadpipe.errors import InputError, MeshError, SpecError
 from cadpipe.geometry.mesh import Mesh
 from cadpipe.collision import kinematics
-from cadpipe.collision.packed import Direct
 
 MOVING = ("revolute", "continuous", "prismatic")
 
@@ -408,8 +407,8 @@ def _kinematics(joints, base, geometry):
 
 
 _EYE = np.eye(4)
-#: one state's kinematics without numba's per-call dispatch (the types never vary)
-_place_links = Direct(kinematics.place_links)
+#: one state's kinematics in one compiled call
+_place_links = kinematics.place_links
 
 
 def _joint(j):

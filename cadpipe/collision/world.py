@@ -40,12 +40,12 @@ from typing import TYPE_CHECKING
 from dataclasses import dataclass, field
 from functools import cached_property
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike
 
 from cadpipe.errors import InputError
-from cadpipe.core.transform import _problem as rigid_problem, as_matrix
+from cadpipe.core.kernels import native
+from cadpipe.core.transform import as_matrix
 from cadpipe.collision import bounds
 from cadpipe.collision import funnel
 from cadpipe.collision import narrow
@@ -87,41 +87,21 @@ def _plain_pose(value):
         value.dtype == np.float64 and value.flags.c_contiguous
 
 
-@numba.njit(cache=True, nogil=True)
-def _place_pose(matrix, poses, versions, i):
-    """:meth:`Scene.set_pose` of a (4, 4) float64 ``matrix`` in one compiled call:
-    0 when :func:`as_pose` accepts it (it is then written into ``poses[i]`` and
-    ``versions[i]`` counts the move), else what :func:`as_pose` would refuse and
-    nothing is written. A pose set per call: 2.5 us through as_pose, 1 us here."""
-    problem = rigid_problem(matrix.reshape(1, 4, 4), True)
-    if problem == 0:
-        poses[i] = matrix
-        versions[i] += 1
-    return problem
+# ``native.set_pose(matrix, poses, versions, i)`` is :meth:`Scene.set_pose` of a (4, 4)
+# float64 ``matrix`` in one compiled call: 0 when :func:`as_pose` accepts it (it is then
+# written into ``poses[i]`` and ``versions[i]`` counts the move), else what :func:`as_pose`
+# would refuse and nothing is written. A pose set per call: 2.5 us through as_pose, 1 us
+# there.
 
-
-#: what :func:`_collide_pose` returns for a pose :func:`as_pose` refuses
+#: what ``native.collide_pose`` returns for a pose :func:`as_pose` refuses; it is the
+#: compiled ``settle`` (:mod:`cadpipe.collision.narrow`) of objects ``i`` and ``j`` of the
+#: packed world at (4, 4) float64 poses, each first checked as :func:`as_pose` checks it,
+#: in one call: ``(code, touching)``. Per pose, the two checks as calls of their own cost
+#: 1.6 us of the 9 us a pipe-mesh pose took.
 _REFUSED = -2
-
-
-@numba.njit(cache=True, nogil=True)
-def _collide_pose(w, i, pose_i, j, pose_j):
-    """:func:`narrow.settle` of objects ``i`` and ``j`` of the packed world ``w`` at
-    (4, 4) float64 poses, each first checked as :func:`as_pose` checks it, in one
-    compiled call: ``(code, touching)``, the code :data:`_REFUSED` (and nothing
-    decided) where a pose fails. Per pose, the two checks as calls of their own
-    cost 1.6 us of the 9 us a pipe-mesh pose took."""
-    if rigid_problem(pose_i.reshape(1, 4, 4), True) or \
-            rigid_problem(pose_j.reshape(1, 4, 4), True):
-        return _REFUSED, False
-    return narrow.settle(w, i, pose_i.reshape(1, 4, 4), j, pose_j.reshape(1, 4, 4),
-                         np.empty((1, 4, 4)))
-
-
-# the kernels a single state or pose calls, without numba's per-call dispatch (their
-# argument types never vary here)
-_refresh, _collide = packed.Direct(funnel.refresh), packed.Direct(_collide_pose)
-_place = packed.Direct(_place_pose)
+if native.collision_constants()["REFUSED"] != _REFUSED:
+    raise ImportError("cadpipe's pose kernels were built with another refusal code than "
+                      "cadpipe.collision.world holds")
 
 
 def as_poses(transforms, name, shape=None):
@@ -389,7 +369,7 @@ class Scene:
         # a float64 4x4 array is checked and written in one compiled call; anything
         # else, and any matrix that fails, goes through as_pose (and its message)
         if not (_plain_pose(transform)
-                and _place(transform, self._poses, self._pose_versions, i) == 0):
+                and native.set_pose(transform, self._poses, self._pose_versions, i) == 0):
             self._moved(i, as_pose(transform, name))
 
     def _moved(self, ids, poses):
@@ -574,8 +554,8 @@ class Checker:
         record, answers, left, left_poses, hits = self._record(bool(certify))
         count = len(table.first)
         codes, colliding = np.empty(count, np.int8), np.empty(count, bool)
-        found = _refresh(record, chosen, bool(first_hit), bool(stop_after_self), codes,
-                         colliding)
+        found = native.refresh(record, chosen, bool(first_hit), bool(stop_after_self), codes,
+                               colliding)
         stopped = stop_after_self and bool(hits[0])
         if found:
             stopped = self._settle_left(left[:found], left_poses, answers, hits, codes,
@@ -627,8 +607,8 @@ class Checker:
 
     def _record(self, certify):
         """``(record, answers, left, left_poses, hits)``: the
-        :class:`~cadpipe.collision.packed.Packed` record that
-        :func:`~cadpipe.collision.funnel.refresh` works on (layout, placed
+        :class:`~cadpipe.collision.packed.Packed` record that ``native.refresh``
+        (:mod:`cadpipe.collision.funnel`) works on (layout, placed
         bounds, answers) and the arrays of it Python reads: each pair's stored
         answers with ``certify``, the pairs the last call left, their relative
         poses, its hits; made once per layout."""
@@ -782,9 +762,9 @@ class Checker:
         """Whether objects ``i`` and ``j`` collide at float64 (4, 4) C-ordered poses
         ``pose_i``, ``pose_j``, or None (nothing decided) where one is not a pose
         :func:`as_pose` accepts: the compiled walks of the funnel kernel where they
-        decide (:func:`cadpipe.collision.narrow.settle`), :func:`narrow.collide`
+        decide (the compiled settle of :mod:`cadpipe.collision.narrow`), :func:`narrow.collide`
         for the rest; the same answer either way."""
-        code, touching = _collide(self._record(False)[0], i, pose_i, j, pose_j)
+        code, touching = native.collide_pose(self._record(False)[0], i, pose_i, j, pose_j)
         if code == _REFUSED:
             return None
         if code != narrow.UNSETTLED:

@@ -7,7 +7,6 @@ that spin on a busy machine (a 1M-triangle STL write spent 0.21 s of 0.35 s ther
 a load of 2 on 2 cores, 0.016 s in one thread; docs/performance.md).
 """
 
-import numba
 import numpy as np
 
 from cadpipe.core.kernels import native
@@ -76,44 +75,6 @@ def is_rigid(matrix):
 #: ``np.allclose``); with ``rigid``, that row within 1e-9, ``R^T R`` within 1e-6 of the
 #: identity and ``det R > 0``; ``|det R| >= 1e-12``
 _NOT_FINITE, _NOT_AFFINE, _NOT_RIGID, _FLAT = 1, 2, 3, 4
-
-
-# TEMPORARY: the numba form, until collision/world.py's compiled pose check is C
-@numba.njit(cache=True, nogil=True)
-def _problem(matrices, rigid):
-    """The first failing check over all of ``matrices`` (M, 4, 4), in the order
-    :func:`as_matrix` reports them: finite entries; a last row of ``0 0 0 1``
-    (as ``np.allclose``); with ``rigid``, that row within 1e-9, ``R^T R`` within
-    1e-6 of the identity and ``det R > 0``; ``|det R| >= 1e-12``. One compiled
-    pass: a pose set per call costs no numpy calls on tiny arrays."""
-    for m in matrices:
-        for r in range(4):
-            for c in range(4):
-                if not np.isfinite(m[r, c]):
-                    return _NOT_FINITE
-    last = (0.0, 0.0, 0.0, 1.0)
-    for m in matrices:
-        for c in range(4):
-            if abs(m[3, c] - last[c]) > 1e-8 + 1e-5 * abs(last[c]):
-                return _NOT_AFFINE
-    for m in matrices:
-        det = m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]) \
-            - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0]) \
-            + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0])
-        if rigid:
-            for c in range(4):
-                if abs(m[3, c] - last[c]) > 1e-9:
-                    return _NOT_RIGID
-            for i in range(3):
-                for j in range(3):
-                    v = m[0, i] * m[0, j] + m[1, i] * m[1, j] + m[2, i] * m[2, j]
-                    if abs(v - (1.0 if i == j else 0.0)) > 1e-6:
-                        return _NOT_RIGID
-            if not det > 0:
-                return _NOT_RIGID
-        if abs(det) < 1e-12:
-            return _FLAT
-    return 0
 
 
 def placed_points(points, matrix):

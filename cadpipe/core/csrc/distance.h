@@ -103,7 +103,7 @@ static inline V3 nearest_on_triangle(V3 a, V3 b, V3 c, int *mask)
     }
     double v = vb / total, w = vc / total;
     *mask = 7;
-    return v3_add(a, v3_add(v3_scale(ab, v), v3_scale(ac, w)));
+    return v3_add(v3_add(a, v3_scale(ab, v)), v3_scale(ac, w));     /* (a + v ab) + w ac */
 }
 
 /* The point of triangle ``t`` (9 coordinates, corner by corner) nearest ``p``. */
@@ -174,7 +174,7 @@ static inline double segment_triangle(V3 a, V3 b, const double *t, V3 *near, V3 
         double f = da / (da - db);
         V3 x = v3_add(a, v3_scale(u, f));
         V3 c = closest_on_triangle(x, t);
-        if (v3_norm2(v3_sub(c, x)) <= 1e-30 * (1.0 + v3_norm2(x))) {
+        if (v3_norm2(v3_sub(c, x)) <= 1e-30 * (1.0 + x.x * x.x + x.y * x.y + x.z * x.z)) {
             *near = x;
             *far = c;
             return 0.0;

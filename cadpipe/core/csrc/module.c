@@ -10,9 +10,26 @@
 #include "transform.c"
 #include "convex.c"
 #include "clearance.c"
+#include "hierarchy.c"
+#include "chain_mesh.c"
+#include "triangle_tree.c"
+#include "packed.c"
+#include "narrow.c"
+#include "funnel.c"
 
-static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods,
-                                 clearance_methods};
+/* one table a line */
+static PyMethodDef *tables[] = {
+    points_methods,
+    transform_methods,
+    convex_methods,
+    clearance_methods,
+    hierarchy_methods,
+    chain_mesh_methods,
+    triangle_tree_methods,
+    packed_methods,
+    narrow_methods,
+    funnel_methods,
+};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "cadpipe.core._kernels",
                                     "cadpipe's compiled kernels (see csrc/native.h).", -1,
@@ -37,7 +54,8 @@ PyMODINIT_FUNC PyInit__kernels(void)
     }
     module.m_methods = all;
     PyObject *m = PyModule_Create(&module);
-    if (m && PyModule_AddStringConstant(m, "SOURCE_HASH", CP_SOURCE_HASH) < 0) {
+    if (m && (PyModule_AddStringConstant(m, "SOURCE_HASH", CP_SOURCE_HASH) < 0 ||
+              PyModule_AddType(m, &packed_type) < 0)) {
         Py_DECREF(m);
         return NULL;
     }

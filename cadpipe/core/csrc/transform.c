@@ -114,6 +114,17 @@ KERNEL(relative_poses)
     Py_RETURN_NONE;
 }
 
+/* ``out`` (n, 3) = C-ordered ``points`` (n, 3) moved by the 4x4 ``m`` (16, row by row): what
+ * a walk does to one tree's points per pose (the same products as place_points). */
+static inline void move_points(const double *m, const double *points, npy_intp n, double *out)
+{
+    for (npy_intp k = 0; k < n; k++) {
+        double x = points[3 * k], y = points[3 * k + 1], z = points[3 * k + 2];
+        for (int r = 0; r < 3; r++)
+            out[3 * k + r] = m[4 * r] * x + m[4 * r + 1] * y + m[4 * r + 2] * z + m[4 * r + 3];
+    }
+}
+
 /* ``out`` (N, 3) float64 = (N, 3) float64 or float32 ``points`` (any strides) moved by the
  * 4x4 float64 ``matrix``. */
 #define PLACE_LOOP(T)                                                                    \
