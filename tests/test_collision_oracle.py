@@ -105,7 +105,7 @@ def test_meshes_agree_with_manifold_and_fcl(fixture):
     world = CollisionWorld()
     world.add("a", a)
     world.add("b", b)
-    mesh_a = world._bodies[0].mesh
+    mesh_a = world.bodies[0].mesh
     all_poses = poses({"tori": 1, "boxes": 2, "concave": 3}[fixture], N_POSES, spread)
     ours, stages, vols = run(world, "b", all_poses, mesh_a.to_manifold(), b.to_manifold())
     # FCL and manifold3d are both exact on the same triangles: only grazing poses differ
@@ -166,7 +166,7 @@ def test_pipes_agree_with_manifold_on_their_meshes_and_with_fcl_capsules():
     band = 0.02 * 0.15
 
     def within_band(k):
-        gap = world._bodies[0].chain.gap(world._bodies[1].chain, all_poses[k])[0]
+        gap = world.bodies[0].chain.gap(world.bodies[1].chain, all_poses[k])[0]
         return abs(gap) < band
 
     hits, misses = agreement(ours, vols, within_band)

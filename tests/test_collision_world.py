@@ -223,7 +223,7 @@ def test_open_meshes_are_refused_where_a_solid_is_needed():
 def test_pipes_are_never_tessellated():
     world = CollisionWorld()
     world.add("p", Pipe(Path([[0, 0, 0], [1, 0, 0], [2, 1, 0]]), 0.1))
-    body = world._bodies[0]
+    body = world.bodies[0]
     assert body.kind == "chain" and body.mesh is None
 
 

@@ -9,8 +9,9 @@ from cadpipe.collision.bodies import Box, Capsule, Sphere, Surface
 from cadpipe.collision.certificate import Certificate
 from cadpipe.collision.fixture import PipeContainment
 from cadpipe.collision.robot import Joint, Robot, srdf_disabled_pairs
-from cadpipe.collision.world import (STAGES, Clearance, CollisionReport, CollisionReports,
-                                     CollisionWorld, PairResult)
+from cadpipe.collision.reports import (STAGES, Clearance, CollisionReport, CollisionReports,
+                                       PairResult)
+from cadpipe.collision.world import CollisionWorld
 
 __all__ = ["STAGES", "Box", "Capsule", "Certificate", "Clearance", "CollisionReport",
            "CollisionReports", "CollisionWorld", "Joint", "PairResult", "PipeContainment",

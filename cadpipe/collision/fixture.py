@@ -143,7 +143,7 @@ def _pipe_chain(pipe, transform, call):
     # cap units that hold the mesh; locating along the path needs the segments alone)
     chain = Chain.along(pipe.path.points, pipe.ring_radii, closed=pipe.closed)
     if transform is not None:
-        from cadpipe.collision.world import as_pose
+        from cadpipe.collision.scene import as_pose
 
         chain = chain.moved(as_pose(transform, "pipe"))
     return chain

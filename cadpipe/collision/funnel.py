@@ -50,7 +50,7 @@ from cadpipe.collision.convex import FUNNEL_ITERATIONS
 from cadpipe.collision.narrow import UNSETTLED
 from cadpipe.core.kernels import native
 
-#: stage codes :func:`decide` writes (indices into ``world.STAGES``)
+#: stage codes :func:`decide` writes (indices into ``reports.STAGES``)
 AABB, KDOP, OBB, HULL = 1, 2, 3, 4
 #: the codes ``native.refresh``'s report gives allowed pairs and pairs it did not decide
 ALLOWED, NOT_CHECKED = 0, 9

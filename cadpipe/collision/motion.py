@@ -256,7 +256,7 @@ def _setup(world, group, robot):
     allowed pairs or the standing objects' poses have changed."""
     known = _SETUPS.setdefault(world, {}).get(group)
     fresh = known is None or known.layout != world.layout_version
-    standing = np.setdiff1d(np.arange(len(world.names)), world._robot(group)[2]) if fresh \
+    standing = np.setdiff1d(np.arange(len(world.names)), world.robot_links(group)[2]) if fresh \
         else known.standing
     versions = world.pose_versions[standing].tobytes()
     if fresh or known.versions != versions:

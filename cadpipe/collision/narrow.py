@@ -25,7 +25,7 @@ from cadpipe.collision.hierarchy import chain_gaps
 from cadpipe.core.kernels import native
 from cadpipe.core.transform import relative
 
-#: stage codes of the exact phase (indices into ``world.STAGES``)
+#: stage codes of the exact phase (indices into ``reports.STAGES``)
 FCL, CONTAINMENT, ANALYTIC = 6, 7, 8
 #: what the compiled settle returns for a pair it leaves to the Python narrow phase
 UNSETTLED = -1

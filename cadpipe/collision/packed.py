@@ -14,7 +14,7 @@ per-state call checks one argument with one pointer comparison.
 The record holds the arrays themselves, not copies: the scene's poses and
 pose versions, the checker's placed bounds and stored answers are the same
 memory the Python side reads, so a record stays valid for as long as the
-layout it was made for (:class:`cadpipe.collision.world.Checker` makes a new
+layout it was made for (:class:`cadpipe.collision.checker.Checker` makes a new
 one when the layout changes). It also holds the last call's scratch (the pairs
 left to Python, the hits), so one world takes one check at a time, as its
 stored answers already required.

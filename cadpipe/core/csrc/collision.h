@@ -1,10 +1,10 @@
-/* What the collision kernels share: the stage codes of cadpipe.collision.world.STAGES and
+/* What the collision kernels share: the stage codes of cadpipe.collision.reports.STAGES and
  * the 18-DOP's directions (cadpipe.collision.bounds). The Python modules check theirs
  * against collision_constants() when imported. */
 #ifndef CP_COLLISION_H
 #define CP_COLLISION_H
 
-/* the stages that decide a pair (indices into world.STAGES) */
+/* the stages that decide a pair (indices into reports.STAGES) */
 enum {
     ALLOWED = 0, AABB = 1, KDOP = 2, OBB = 3, HULL = 4, FCL = 6, CONTAINMENT = 7, ANALYTIC = 8,
     NOT_CHECKED = 9,

@@ -200,8 +200,9 @@ static int packed_consistent(const Packed *w, const Arr *arr)
 }
 
 /* pack(points, pads, ..., hits, certify): the record of the fields in PACKED_FIELDS order
- * (each of its dtype, ndim and inner extents, C-ordered and writeable: shared, not copied),
- * then ``certify``. */
+ * (each of its dtype, ndim and inner extents, C-ordered: shared, not copied), then
+ * ``certify``. The kernels write only the fields from ``placed_at`` on, which must be
+ * writeable; the scene's poses and versions before them may be read-only views. */
 KERNEL(pack)
 {
     CP_NARGS(PACKED_COUNT + 1);
@@ -212,7 +213,8 @@ KERNEL(pack)
 #undef PACKED_SPEC
     };
     for (int k = 0; k < PACKED_COUNT; k++) {
-        if (!cp_array(args[k], fields[k].type, fields[k].ndim, 1, &arr[k], "pack", k)) {
+        if (!cp_array(args[k], fields[k].type, fields[k].ndim, k >= F_placed_at, &arr[k], "pack",
+                      k)) {
             PyObject *type, *value, *trace;          /* name the field, keep the details */
             PyErr_Fetch(&type, &value, &trace);
             PyErr_Format(PyExc_TypeError, "packed field %s: %S", fields[k].name, value);
