@@ -103,7 +103,7 @@ static inline V3 nearest_on_triangle(V3 a, V3 b, V3 c, int *mask)
     }
     double v = vb / total, w = vc / total;
     *mask = 7;
-    return v3_add(a, v3_add(v3_scale(ab, v), v3_scale(ac, w)));
+    return v3_add(v3_add(a, v3_scale(ab, v)), v3_scale(ac, w));   /* (a + v ab) + w ac */
 }
 
 /* The point of triangle ``t`` (9 coordinates, corner by corner) nearest ``p``. */
