@@ -9,8 +9,18 @@
 #include "points.c"
 #include "transform.c"
 #include "convex.c"
+#include "kinematics.c"
+#include "motion.c"
+#include "capsules.c"
+#include "fixture.c"
+#include "boxtree.c"
+#include "winding.c"
+#include "intersect.c"
 
-static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods};
+static PyMethodDef *tables[] = {points_methods,   transform_methods, convex_methods,
+                                 kinematics_methods, motion_methods, capsules_methods,
+                                 fixture_methods,  boxtree_methods,   winding_methods,
+                                 intersect_methods};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "cadpipe.core._kernels",
                                     "cadpipe's compiled kernels (see csrc/native.h).", -1,
