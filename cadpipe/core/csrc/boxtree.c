@@ -53,8 +53,8 @@ KERNEL(triangle_boxes)
         Py_XDECREF(hi);
         return NULL;
     }
-    const double *t = F64(tri);
-    double *l = PyArray_DATA(lo), *h = PyArray_DATA(hi);
+    const double *restrict t = F64(tri);
+    double *restrict l = PyArray_DATA(lo), *restrict h = PyArray_DATA(hi);
     Py_BEGIN_ALLOW_THREADS
     for (npy_intp f = 0; f < n; f++)
         for (int axis = 0; axis < 3; axis++) {

@@ -80,6 +80,25 @@ KERNEL(closed)
     return PyBool_FromLong(closed);
 }
 
+/* Python's ``a // b``, and ``a % b`` into ``*rem``, for b > 0 with ``inv`` = 1 / b: for
+ * 0 <= a < 2**50 (every key of a mesh of up to 33 million vertices) the quotient from a
+ * product of doubles, off by at most one and corrected, since a 64-bit division was a
+ * seventh of caps' time; else by the integer division. */
+static inline int64_t divmod_by(int64_t a, int64_t b, double inv, int64_t *rem)
+{
+    if (a >= 0 && a < ((int64_t)1 << 50)) {
+        int64_t q = (int64_t)((double)a * inv), r = a - q * b;
+        while (r < 0)
+            q--, r += b;
+        while (r >= b)
+            q++, r -= b;
+        *rem = r;
+        return q;
+    }
+    *rem = cp_mod(a, b);
+    return cp_floordiv(a, b);
+}
+
 /* ``key``, ``times`` grown to ``size`` entries, the first ``used`` kept; 0 when out of
  * memory (the old blocks kept). */
 static int grown(int64_t **key, int64_t **times, npy_intp size)
@@ -196,10 +215,9 @@ KERNEL(caps)
     }
     if (ok) {
         int64_t *e = PyArray_DATA(edges_arr);
-        for (int64_t k = 0; k < used; k++) {
-            e[2 * k] = cp_floordiv(key[k], vertex_count);
-            e[2 * k + 1] = cp_mod(key[k], vertex_count);
-        }
+        double inv = 1.0 / (double)vertex_count;
+        for (int64_t k = 0; k < used; k++)
+            e[2 * k] = divmod_by(key[k], vertex_count, inv, &e[2 * k + 1]);
         memcpy(PyArray_DATA(times_arr), times, used * sizeof(int64_t));
     }
     PyMem_RawFree(key);
