@@ -376,8 +376,8 @@ static int advance(const Kinematics *kin, const Chain *c, const Pairs *pr, const
 {
     npy_intp count = pr->count, nf = c->frames;
     /* the boxes' pads (zeros), each link's motion against standing objects and when */
-    const double *flat = s->reach + c->joints;
-    double *alone = (double *)flat + pr->box_points, *alone_at = alone + 3 * nf;
+    double *flat = s->reach + c->joints, *alone = flat + pr->box_points;
+    double *alone_at = alone + 3 * nf;
     for (npy_intp f = 0; f < nf; f++)
         alone_at[f] = -1.0;
     chain_levers(c, v_a, v_b, s->lever, s->relative);

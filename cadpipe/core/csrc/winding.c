@@ -42,7 +42,7 @@ static inline uint64_t edge_key(int64_t low, int64_t high, int64_t vertex_count)
  * must be the same multiset. -1 when out of memory. */
 static int faces_closed(const int64_t *faces, npy_intp count, int64_t vertex_count)
 {
-    uint64_t *keys = PyMem_RawMalloc((12 * count + 1) * sizeof(uint64_t));
+    uint64_t *keys = PyMem_RawMalloc((9 * count + 1) * sizeof(uint64_t));
     if (!keys)
         return -1;
     uint64_t *up = keys, *down = keys + 3 * count, *scratch = keys + 6 * count;
