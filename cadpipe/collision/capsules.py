@@ -19,78 +19,35 @@ many poses of one chain against another): no triangle is ever looked at.
 
 from functools import cached_property
 
-import numba
 import numpy as np
 
+from cadpipe.core.kernels import native
 from cadpipe.core.vec import dot
 
+
 # -- points against units -------------------------------------------------------
-@numba.njit(cache=True, nogil=True)
-def round_cone_at(px, py, pz, a, b, ra, rb):
-    """Signed distance of the point ``(px, py, pz)`` to the unit ``conv(B(a, ra),
-    B(b, rb))`` (``a``, ``b`` (3,) arrays): the one implementation, compiled, that
-    :func:`round_cone_distance`, :func:`chain_signed_distance` and the fixture
-    queries call.
-
-    Reduced to the unit's half-plane -- axial ``y`` along ``a -> b``, radial
-    ``x`` -- where the side line touches both end circles; ``w``, the
-    coordinate along that line, tells which of the three boundary pieces is
-    nearest. A unit one ball of which swallows the other (or of length 0) is
-    the bigger ball.
-    """
-    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    length = np.sqrt(ux * ux + uy * uy + uz * uz)
-    safe = length if length > 0 else 1.0
-    rx, ry, rz = px - a[0], py - a[1], pz - a[2]
-    y = (rx * ux + ry * uy + rz * uz) / safe
-    x = np.sqrt(max(rx * rx + ry * ry + rz * rz - y * y, 0.0))
-    delta = (ra - rb) / safe                      # sine of the cone's half angle
-    to_a = np.hypot(x, y) - ra
-    to_b = np.hypot(x, y - length) - rb
-    if not (length > 0 and abs(delta) < 1.0):
-        return to_a if ra >= rb else to_b
-    cos = np.sqrt(1.0 - delta * delta)
-    w = y * cos - x * delta
-    if w < 0:
-        return to_a
-    if w > length * cos:
-        return to_b
-    return x * cos + y * delta - ra
-
-
-@numba.njit(cache=True, nogil=True)
-def _round_cones(points, a, b, ra, rb, out):
-    for k in range(len(out)):
-        out[k] = round_cone_at(points[k, 0], points[k, 1], points[k, 2], a[k], b[k], ra[k],
-                               rb[k])
-
-
 def round_cone_distance(points, a, b, ra, rb):
     """Signed distance of points to round-cone units ``conv(B(a, ra), B(b, rb))``.
 
     All arguments broadcast against each other (points ``(..., 3)``, radii
     ``(...)``). Exact outside a unit; inside it is the distance to the unit's
-    own boundary. See :func:`round_cone_at`.
+    own boundary. The one implementation (``round_cone_at`` in
+    ``csrc/capsules.c``), which :func:`chain_signed_distance` and the fixture
+    queries call too, reduces the point to the unit's half-plane -- axial ``y``
+    along ``a -> b``, radial ``x`` -- where the side line touches both end
+    circles; ``w``, the coordinate along that line, tells which of the three
+    boundary pieces is nearest. A unit one ball of which swallows the other (or
+    of length 0) is the bigger ball.
     """
     points, a, b = (np.asarray(v, np.float64) for v in (points, a, b))
     ra, rb = (np.asarray(v, np.float64)[..., None] for v in (ra, rb))
     shape = np.broadcast_shapes(points.shape, a.shape, b.shape, ra.shape, rb.shape)
-    # owned copies: numba must not be handed broadcast (read-only) views
+    # owned C-ordered copies of the broadcast (read-only, strided) views
     flat = [np.array(np.broadcast_to(v, shape)).reshape(-1, 3) for v in (points, a, b)]
     radii = [np.array(np.broadcast_to(v, shape)[..., 0]).reshape(-1) for v in (ra, rb)]
     out = np.empty(shape[:-1])
-    _round_cones(*flat, *radii, out.reshape(-1))
+    native.round_cones(*flat, *radii, out.reshape(-1))
     return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _chain_signed_distance(points, a, b, ra, rb, out):
-    for k in range(len(points)):
-        best = np.inf
-        for u in range(len(a)):
-            best = min(best, round_cone_at(points[k, 0], points[k, 1], points[k, 2], a[u], b[u],
-                                           ra[u], rb[u]))
-        out[k] = best
 
 
 def chain_signed_distance(points, a, b, ra, rb):
@@ -103,8 +60,8 @@ def chain_signed_distance(points, a, b, ra, rb):
     """
     points = np.ascontiguousarray(points, np.float64).reshape(-1, 3)
     out = np.empty(len(points))
-    _chain_signed_distance(points, *(np.ascontiguousarray(v, np.float64) for v in (a, b, ra, rb)),
-                           out)
+    native.chain_signed_distance(points, *(np.ascontiguousarray(v, np.float64)
+                                           for v in (a, b, ra, rb)), out)
     return out
 
 

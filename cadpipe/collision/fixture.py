@@ -7,11 +7,11 @@ the pipe's wall, the nearest point of the centreline, its arc length and the
 tangent there. The pipe is the chain of round cones along its centreline
 through its ring radii. A perfect binary tree of axis-aligned boxes over the
 centreline's consecutive segments (each box also knows its largest radius) is
-walked per point in one compiled loop (numba), nearer child first; a subtree
-is skipped only when its box is farther than the best centreline distance
-found and, less its radius, than the best wall distance -- so both answers are
-the exact minima over every segment, not a nearest-vertex guess, and a point
-costs a few dozen box tests rather than one per segment.
+walked per point in one compiled loop (C, ``csrc/fixture.c``), nearer child
+first; a subtree is skipped only when its box is farther than the best
+centreline distance found and, less its radius, than the best wall distance --
+so both answers are the exact minima over every segment, not a nearest-vertex
+guess, and a point costs a few dozen box tests rather than one per segment.
 
 :func:`leaves` and :func:`containment` are the ordered tool-path question. The
 points themselves are classified by their signed distance to the ball chain.
@@ -25,12 +25,12 @@ the first gap is where the path leaves the pipe.
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from cadpipe._validate import as_points
 from cadpipe.collision.bounds import box_levels
-from cadpipe.collision.capsules import Chain, round_cone_at, round_cone_distance
+from cadpipe.collision.capsules import Chain, round_cone_distance
+from cadpipe.core.kernels import native
 from cadpipe.errors import InputError
 
 #: golden-section steps and bisection steps (each shrinks the bracket below 1e-12)
@@ -175,73 +175,15 @@ def locate(pipe, points, transform=None) -> PipeLocation:
     m = len(points)
     out = PipeLocation(np.empty(m, bool), np.empty(m), np.empty((m, 3)), np.empty(m),
                        np.empty((m, 3)), np.empty(m, np.int64))
-    _locate(points, line.a, line.b, line.ra, line.rb, line.length, line.start_arc,
-            line.tangent, tree.lo, tree.hi, tree.reach, tree.unit, tree.depth, line.uniform,
-            line.radius, out.inside, out.signed_distance, out.nearest, out.arc_length,
-            out.tangent, out.segment)
+    # the walk: depth first, the nearer child first, a node skipped when its box is
+    # farther than the best centreline distance and, less ``reach``, than the best wall
+    # distance
+    native.locate(points, *(np.ascontiguousarray(v, np.float64) for v in (
+                      line.a, line.b, line.ra, line.rb, line.length, line.start_arc,
+                      line.tangent, tree.lo, tree.hi, tree.reach)),
+                  tree.unit, tree.depth, line.uniform, line.radius, out.inside,
+                  out.signed_distance, out.nearest, out.arc_length, out.tangent, out.segment)
     return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _box_gap(p, lo, hi):
-    """Distance from the point ``p`` (3,) to the box ``lo``, ``hi`` (0 inside)."""
-    total = 0.0
-    for r in range(3):
-        out = max(lo[r] - p[r], p[r] - hi[r], 0.0)
-        total += out * out
-    return np.sqrt(total)
-
-
-@numba.njit(cache=True, nogil=True)
-def _locate(points, a, b, ra, rb, length, start_arc, tangent, lo, hi, reach, unit, depth,
-            uniform, radius, inside, sd, nearest, arc, tan, segment):
-    """:func:`locate`'s walk, per point into the output arrays: depth first, the
-    nearer child first, a node skipped when its box is farther than the best
-    centreline distance and, less ``reach``, than the best wall distance."""
-    leaves = 2 ** depth - 1
-    stack = np.empty(2 * depth + 2, np.int64)
-    gaps = np.empty(2 * depth + 2)
-    for k in range(len(points)):
-        p = points[k]
-        best_line, best_wall, best_unit, best_t = np.inf, np.inf, -1, 0.0
-        stack[0], gaps[0] = 0, _box_gap(p, lo[0], hi[0])
-        top = 1
-        while top:
-            top -= 1
-            node, gap = stack[top], gaps[top]
-            if gap > best_line and gap - reach[node] > best_wall:
-                continue
-            if node >= leaves:
-                u = unit[node - leaves]
-                if u < 0:
-                    continue
-                ux, uy, uz = b[u, 0] - a[u, 0], b[u, 1] - a[u, 1], b[u, 2] - a[u, 2]
-                rx, ry, rz = p[0] - a[u, 0], p[1] - a[u, 1], p[2] - a[u, 2]
-                sq = length[u] * length[u]
-                t = min(max((rx * ux + ry * uy + rz * uz) / (sq if sq > 0 else 1.0), 0.0), 1.0)
-                dx, dy, dz = rx - t * ux, ry - t * uy, rz - t * uz
-                d = np.sqrt(dx * dx + dy * dy + dz * dz)
-                if d < best_line or (d == best_line and u < best_unit):
-                    best_line, best_unit, best_t = d, u, t
-                wall = d - radius if uniform else round_cone_at(p[0], p[1], p[2], a[u], b[u],
-                                                                ra[u], rb[u])
-                best_wall = min(best_wall, wall)
-                continue
-            near, far = 2 * node + 1, 2 * node + 2
-            g_near, g_far = _box_gap(p, lo[near], hi[near]), _box_gap(p, lo[far], hi[far])
-            if g_far < g_near:
-                near, far, g_near, g_far = far, near, g_far, g_near
-            stack[top], gaps[top] = far, g_far
-            stack[top + 1], gaps[top + 1] = near, g_near
-            top += 2
-        u, t = best_unit, best_t
-        sd[k] = best_wall
-        inside[k] = best_wall <= 0
-        segment[k] = u
-        arc[k] = start_arc[u] + t * length[u]
-        for r in range(3):
-            nearest[k, r] = a[u, r] + t * (b[u, r] - a[u, r])
-            tan[k, r] = tangent[u, r]
 
 
 def leaves(pipe, points, transform=None) -> PipeContainment:

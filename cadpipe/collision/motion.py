@@ -23,7 +23,8 @@ advancement (Mirtich 1996; Schwarzer, Saha and Latombe 2005), pair by pair:
    unit of ``t``) from ``t`` to the end of the segment; mimic joints count with
    their own ``dq``. Beside it, the joints' velocities at ``t`` move ``L``
    rigidly, so the greatest speed ``S_L`` of its box now is exact (a corner's),
-   and ``A_L`` bounds how fast any point's speed can grow (:func:`_link_motion`):
+   and ``A_L`` bounds how fast any point's speed can grow (``link_motion`` in
+   ``csrc/motion.c`` derives it):
    a point's path from ``t`` to ``t + s`` is at most
    ``min(D_L s, S_L s + A_L s^2 / 2)`` long.
 2. **How fast a pair can close.** For two links of one robot only the joints
@@ -53,18 +54,18 @@ soon as a pair's bound falls below ``2 margin``. "Free" then proves a clearance
 of at least ``margin`` all along, each step advances by at least ``margin / D``,
 and no exact query is ever needed.
 
-The whole advancement of a segment is one compiled call (numba), forward
-kinematics included; it comes back to Python only for an exact clearance.
+The whole advancement of a segment is one compiled call (C,
+``csrc/motion.c``), forward kinematics and GJK included; it comes back to Python
+only for an exact clearance.
 """
 
 import weakref
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
-from cadpipe.collision.convex import ITERATIONS, body_bounds, bounds
-from cadpipe.collision.kinematics import chain_poses
+from cadpipe.collision.convex import ITERATIONS
+from cadpipe.core.kernels import native
 from cadpipe.errors import InputError
 
 #: default clearance (world units, metres for URDF robots) counted as contact
@@ -73,10 +74,9 @@ TOLERANCE = 1e-4
 #: just over the tolerance (then reported as in contact: conservative)
 MAX_STEPS = 10_000
 
-# what :func:`_advance` comes back with
+# what the advancement of a segment (``native.advance``, see :func:`_certify`) comes
+# back with
 _FREE, _CONTACT, _ASK, _REFUSED, _GRAZING = 0, 1, 2, 3, 4
-
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 
 @dataclass(frozen=True)
@@ -162,7 +162,9 @@ def proof_states(world, group, configurations, tolerance=None, margin=0.0,
 
 def _certify(world, group, configurations, tolerance, margin, times):
     """:func:`check_motion`, and per segment checked ``(index, times posed)``, up to
-    ``len(times)`` of them."""
+    ``len(times)`` of them. Each segment is one call of ``native.advance``
+    (``csrc/motion.c`` says what it carries over between calls), again after each
+    exact clearance it asks for."""
     tolerance, margin = motion_settings(tolerance, margin)
     robot, base = world.robot(group)
     values = robot.joint_array(configurations)
@@ -170,16 +172,17 @@ def _certify(world, group, configurations, tolerance, margin, times):
         raise InputError("a motion needs at least two configurations", key="configurations")
     q = np.asarray(configurations, np.float64)
     setup = _setup(world, group, robot)
-    kinematics = (*setup.kinematics, base)
+    kinematics = (*setup.kinematics, np.ascontiguousarray(base, np.float64))
     count = len(setup.pairs[0])
     calls, posed, segments, done = 0, np.zeros(2), [], 0
     for segment in range(len(values) - 1):
         t, given, steps = np.zeros(count), np.full(count, np.nan), np.zeros(count, np.int64)
         posed[1] = -1.0
         while True:
-            code, k, bound = _advance(kinematics, setup.chain, setup.pairs, setup.pieces,
-                                      values[segment], values[segment + 1], tolerance,
-                                      margin, t, given, steps, posed, times)
+            code, k, bound = native.advance(kinematics, setup.chain, setup.pairs,
+                                            setup.pieces, values[segment], values[segment + 1],
+                                            tolerance, margin, t, given, steps, posed, times,
+                                            ITERATIONS, MAX_STEPS)
             if code != _ASK:
                 break
             given[k] = _clearance(world, setup, robot, base, q[segment], q[segment + 1], t[k], k)
@@ -243,9 +246,10 @@ def speed_bounds(robot, q_a, q_b, t=0.0, base=None):
     point's speed can grow; a point's path from ``t`` to ``t + s`` is at most
     ``min(D s, S s + A s^2 / 2)`` long."""
     values = robot.joint_array(np.stack([q_a, q_b]))
-    kinematics = (*_kinematics(robot), np.eye(4) if base is None else np.asarray(base, float))
+    base = np.eye(4) if base is None else np.ascontiguousarray(base, np.float64)
     chain = _chain(robot)
-    return _motions(kinematics, chain, values[0], values[1], float(t), chain[0])
+    return native.motions((*_kinematics(robot), base), chain, values[0], values[1], float(t),
+                          chain[0])
 
 
 _SETUPS = weakref.WeakKeyDictionary()
@@ -361,174 +365,13 @@ def _chain(robot):
         _CHAINS[robot] = (
             np.array([frames[name] for name in robot.link_meshes], np.int64), corners,
             radius, above, below,
-            np.array([j.kind in ("revolute", "continuous") for j in joints]),
-            np.array([j.kind == "prismatic" for j in joints]),
-            np.array([np.linalg.norm(j.origin[:3, 3]) for j in joints]),
+            np.array([j.kind in ("revolute", "continuous") for j in joints], bool),
+            np.array([j.kind == "prismatic" for j in joints], bool),
+            np.array([np.linalg.norm(j.origin[:3, 3]) for j in joints], np.float64),
             np.array([frames[j.parent] for j in joints], np.int64),
             np.array([j.origin for j in joints]).reshape(-1, 4, 4),
             np.array([j.axis for j in joints]).reshape(-1, 3))
     return _CHAINS[robot]
-
-
-@_jit
-def _chain_levers(chain, v_a, v_b):
-    """Per segment: ``lever`` (F, J), the chain bound of the distance of each
-    frame's link from each turning joint's origin above it (1 for a sliding
-    joint, 0 off its path), and ``relative`` (F, J), how fast the joints below
-    ``j`` can move the link relative to ``j`` (the chain bounds times the joint
-    steps)."""
-    radius, above, below, turning, sliding, offset = chain[2], chain[3], chain[4], chain[5], \
-        chain[6], chain[7]
-    count, joints = above.shape
-    lever, relative = np.zeros((count, joints)), np.zeros((count, joints))
-    for f in range(count):
-        for j in range(joints):
-            if not above[f, j]:
-                continue
-            if sliding[j]:
-                lever[f, j] = 1.0
-            elif turning[j]:
-                reach = radius[f]
-                for k in range(joints):
-                    if below[f, j, k]:
-                        reach += offset[k]
-                        if sliding[k]:
-                            reach += max(abs(v_a[k]), abs(v_b[k]))
-                lever[f, j] = reach
-        for j in range(joints):
-            for k in range(joints):
-                if below[f, j, k]:
-                    relative[f, j] += lever[f, k] * abs(v_b[k] - v_a[k])
-    return lever, relative
-
-
-@_jit
-def _link_motion(chain, lever, relative, v_a, v_b, frames, link, other, remaining, box, reach):
-    """``(D, S, A)`` of the link of frame ``link`` over the ``remaining`` part of the
-    segment,
-    ``frames`` (F, 4, 4) where every frame stands now, leaving out the joints
-    above frame ``other`` too (-1: none): the speed bound ``D`` (step 1 of the
-    module docstring), the greatest speed ``S`` of the link's box now, and a
-    bound ``A`` of how fast any point's speed can grow (see :func:`_closing`).
-
-    With the joints' rates ``dq_j`` (per unit of ``t``), axes ``u_j`` and
-    origins ``o_j``, a point ``p`` of the link moves at
-    ``sum_j dq_j u_j x (p - o_j)`` (turning) plus ``dq_j u_j`` (sliding): a
-    rigid velocity field, greatest at a corner of the link's box. Its rate of
-    change is at most ``sum_j |dq_j| (2 w_j R_j + sum_(k >= j) |dq_k| r_k)``,
-    ``w_j`` the rates of the turning joints above ``j`` (how fast ``u_j``
-    turns), ``R_j`` the chain bound of ``|p - o_j|`` and ``r_k`` the lever of
-    ``D`` (1 for a sliding joint). ``box`` (8, 3) and ``reach`` (J,) are scratch.
-    """
-    corners, above, below = chain[1], chain[3], chain[4]
-    turning, sliding, parent, origin, axis = chain[5], chain[6], chain[8], chain[9], chain[10]
-    pose = frames[link]
-    for c in range(8):
-        for r in range(3):
-            box[c, r] = pose[r, 0] * corners[link, c, 0] + pose[r, 1] * corners[link, c, 1] \
-                + pose[r, 2] * corners[link, c, 2] + pose[r, 3]
-    joints = above.shape[1]
-    # the velocity field p -> spin x p + shift; reach[j] is r_j over the rest of the segment
-    sx, sy, sz, hx, hy, hz = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    speed = 0.0
-    for j in range(joints):
-        rate = v_b[j] - v_a[j]
-        reach[j] = 0.0
-        if not above[link, j] or rate == 0.0 or (other >= 0 and above[other, j]):
-            continue
-        up, o = frames[parent[j]], origin[j]
-        # the joint's axis where it stands: its origin p and unit direction d
-        px = up[0, 0] * o[0, 3] + up[0, 1] * o[1, 3] + up[0, 2] * o[2, 3] + up[0, 3]
-        py = up[1, 0] * o[0, 3] + up[1, 1] * o[1, 3] + up[1, 2] * o[2, 3] + up[1, 3]
-        pz = up[2, 0] * o[0, 3] + up[2, 1] * o[1, 3] + up[2, 2] * o[2, 3] + up[2, 3]
-        dx, dy, dz = 0.0, 0.0, 0.0
-        for m in range(3):
-            local = o[m, 0] * axis[j, 0] + o[m, 1] * axis[j, 1] + o[m, 2] * axis[j, 2]
-            dx += up[0, m] * local
-            dy += up[1, m] * local
-            dz += up[2, m] * local
-        if sliding[j]:
-            reach[j] = 1.0
-            hx, hy, hz = hx + rate * dx, hy + rate * dy, hz + rate * dz
-        elif turning[j]:
-            far = 0.0
-            for c in range(8):
-                ex, ey, ez = box[c, 0] - px, box[c, 1] - py, box[c, 2] - pz
-                along = ex * dx + ey * dy + ez * dz
-                far = max(far, ex * ex + ey * ey + ez * ez - along * along)
-            reach[j] = min(lever[link, j], np.sqrt(far) + relative[link, j] * remaining)
-            sx, sy, sz = sx + rate * dx, sy + rate * dy, sz + rate * dz
-            # u x (p - o) = u x p - u x o
-            hx -= rate * (dy * pz - dz * py)
-            hy -= rate * (dz * px - dx * pz)
-            hz -= rate * (dx * py - dy * px)
-        speed += reach[j] * abs(rate)
-    fastest = 0.0
-    for c in range(8):
-        x, y, z = box[c, 0], box[c, 1], box[c, 2]
-        vx = sy * z - sz * y + hx
-        vy = sz * x - sx * z + hy
-        vz = sx * y - sy * x + hz
-        fastest = max(fastest, vx * vx + vy * vy + vz * vz)
-    growth = 0.0
-    for j in range(joints):
-        if reach[j] == 0.0:
-            continue
-        turns, onward = 0.0, reach[j] * abs(v_b[j] - v_a[j])
-        for k in range(joints):
-            if reach[k] == 0.0:
-                continue
-            if below[link, k, j] and turning[k]:
-                turns += abs(v_b[k] - v_a[k])
-            elif below[link, j, k]:
-                onward += reach[k] * abs(v_b[k] - v_a[k])
-        growth += abs(v_b[j] - v_a[j]) * (2.0 * turns * lever[link, j] + onward) if turning[j] \
-            else abs(v_b[j] - v_a[j]) * turns
-    return speed, np.sqrt(fastest), growth
-
-
-@_jit
-def _closing(speed, now, growth, clearance):
-    """How far the pair can go (a fraction of the segment) before it could close
-    ``clearance``: it closes at most ``min(D s, S s + A s^2 / 2)`` over ``s``."""
-    return max(clearance / speed, 2.0 * clearance / (now + np.sqrt(now * now + 2.0 * growth
-                                                                   * clearance)))
-
-
-@_jit
-def _frames_at(kinematics, v_a, v_b, t, values):
-    """Every frame's pose (F, 4, 4) at time ``t`` of the segment."""
-    terms, kinds, links, frame_index, base = kinematics
-    for j in range(len(v_a)):
-        values[0, j] = v_a[j] + t * (v_b[j] - v_a[j])
-    return chain_poses(values, terms, kinds, links, base, frame_index)[0]
-
-
-@_jit
-def _motions(kinematics, chain, v_a, v_b, t, chosen):
-    """``(D, S, A)`` of the frames ``chosen`` from time ``t`` of the segment from
-    ``v_a`` to ``v_b``: see :func:`speed_bounds`."""
-    lever, relative = _chain_levers(chain, v_a, v_b)
-    frames = _frames_at(kinematics, v_a, v_b, t, np.empty((1, len(v_a))))
-    out = np.empty((len(chosen), 3))
-    box, reach = np.empty((8, 3)), np.empty(len(v_a))
-    for k in range(len(chosen)):
-        out[k] = _link_motion(chain, lever, relative, v_a, v_b, frames, chosen[k], -1, 1.0 - t,
-                              box, reach)
-    return out
-
-
-@_jit
-def _fastest(kinematics, chain, values, frame):
-    """``(S,)`` a bound of the speed of ``frame``'s origin (per unit of each
-    segment's parameter) all along each segment between rows of ``values``."""
-    out = np.empty(len(values) - 1)
-    chosen = np.array([frame])
-    for s in range(len(out)):
-        speed, now, growth = _motions(kinematics, chain, values[s], values[s + 1], 0.0,
-                                      chosen)[0]
-        out[s] = min(speed, now + growth)
-    return out
 
 
 def frame_speeds(robot, frame, values, reach=0.0):
@@ -543,102 +386,5 @@ def frame_speeds(robot, frame, values, reach=0.0):
     chain, f = _chain(robot), robot.frames.index(frame)
     values = np.ascontiguousarray(values, np.float64)
     turning = chain[3][f] & chain[5]                    # above the frame, and turning
-    return _fastest(kinematics, chain, values, f) + \
+    return native.fastest(kinematics, chain, values, f) + \
         reach * np.abs(np.diff(values[:, turning], axis=0)).sum(axis=1)
-
-
-@_jit
-def _posed(posed, times, t):
-    """Count (and record, while ``times`` has room) a configuration posed at time
-    ``t``, unless it is the one posed last (a call after :data:`_ASK` starts there)."""
-    if posed[0] > 0 and posed[1] == t:
-        return
-    at = int(posed[0])
-    if at < len(times):
-        times[at] = t
-    posed[0], posed[1] = at + 1, t
-
-
-@_jit
-def _advance(kinematics, chain, pairs, pieces, v_a, v_b, tolerance, margin, t, given, steps,
-             posed, times):
-    """Conservative advancement of every pair over the segment between full joint
-    values ``v_a`` and ``v_b``, in time order; ``(code, pair, clearance)``.
-
-    ``t`` (P,) is how far each pair is proven free (1: all of it), ``given`` (P,)
-    exact clearances the caller supplies for the pairs it was asked about (NaN:
-    none), ``steps`` (P,) each pair's advancement steps; all three carry over
-    when the caller comes back after :data:`_ASK`. ``posed[0]`` counts the
-    configurations posed (forward kinematics), ``posed[1]`` is the last one's
-    time; the first ``len(times)`` times are written into ``times``. Codes:
-    :data:`_FREE`; :data:`_CONTACT`, :data:`_REFUSED` (``margin > 0``) or :data:`_GRAZING` for
-    the pair at ``t[pair]``; :data:`_ASK`, the caller is to put the exact
-    clearance of ``pair`` at ``t[pair]`` into ``given`` and call again.
-    """
-    a_of, b_of, object_a, object_b, standing, exact, boxes = pairs
-    flat = np.zeros(len(boxes))
-    points, pads, piece_starts, centre, radius, owned = pieces
-    lever, relative = _chain_levers(chain, v_a, v_b)
-    values = np.empty((1, len(v_a)))
-    frames, frames_at = _frames_at(kinematics, v_a, v_b, t.min(), values), t.min()
-    _posed(posed, times, frames_at)
-    box, reach = np.empty((8, 3)), np.empty(len(v_a))
-    alone, alone_at = np.empty((len(chain[2]), 3)), np.full(len(chain[2]), -1.0)
-    while True:
-        k = -1
-        for p in range(len(t)):                    # the pair furthest behind
-            if t[p] < 1.0 and (k < 0 or t[p] < t[k]):
-                k = p
-        if k < 0:
-            return _FREE, -1, 0.0
-        now = t[k]
-        if now != frames_at:
-            frames, frames_at = _frames_at(kinematics, v_a, v_b, now, values), now
-            _posed(posed, times, now)
-        a, b = a_of[k], b_of[k]
-        pose_a = frames[a]
-        pose_b = frames[b] if b >= 0 else standing[k]
-        remaining = 1.0 - now
-        if b >= 0:
-            speed, fastest, growth = _link_motion(chain, lever, relative, v_a, v_b, frames, a,
-                                                  b, remaining, box, reach)
-            more = _link_motion(chain, lever, relative, v_a, v_b, frames, b, a, remaining, box,
-                                reach)
-            speed, fastest, growth = speed + more[0], fastest + more[1], growth + more[2]
-        else:                  # a link against standing objects: one motion for them all
-            if alone_at[a] != now:
-                alone[a] = _link_motion(chain, lever, relative, v_a, v_b, frames, a, -1,
-                                        remaining, box, reach)
-                alone_at[a] = now
-            speed, fastest, growth = alone[a, 0], alone[a, 1], alone[a, 2]
-        # the clearance that proves the rest of the segment (at most D times it)
-        need = min(speed * remaining, (fastest + 0.5 * growth * remaining) * remaining) + margin
-        if given[k] == given[k]:
-            lower = upper = given[k]
-            given[k] = np.nan
-            known = True
-        else:
-            i, j = object_a[k], object_b[k]
-            lower, upper = bounds(boxes, flat, 8 * i, 8 * i + 8, pose_a, 8 * j, 8 * j + 8,
-                                  pose_b, need, ITERATIONS)
-            if lower < need:          # the pieces lie inside the boxes: never nearer
-                hull, upper = body_bounds(points, pads, piece_starts, centre, radius, owned,
-                                          i, pose_a, j, pose_b, need, ITERATIONS)
-                lower = max(lower, hull)
-            known = exact[k]
-        if lower >= need:
-            t[k] = 1.0
-            continue
-        steps[k] += 1
-        if steps[k] > MAX_STEPS:
-            return _GRAZING, k, lower
-        if margin > 0.0:
-            if lower < 2.0 * margin:
-                return _REFUSED, k, lower
-            t[k] = min(now + _closing(speed, fastest, growth, lower - margin), 1.0)
-        elif lower >= tolerance or (known and upper >= tolerance and lower > 0.0):
-            t[k] = min(now + _closing(speed, fastest, growth, lower), 1.0)
-        elif known and upper < tolerance:
-            return _CONTACT, k, upper
-        else:
-            return _ASK, k, lower

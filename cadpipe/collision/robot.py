@@ -222,9 +222,8 @@ class Robot:
         """``(C, F, 4, 4)`` poses of the frames ``frames`` (F,) (indices into
         :attr:`frames`) at ``(C, J)`` values of every joint."""
         k = self._kinematics
-        return kinematics.chain_poses(q, k["terms"], k["kinds"], k["joint_links"],
-                                      _EYE if base is None else np.asarray(base, np.float64),
-                                      frames)
+        base = _EYE if base is None else np.ascontiguousarray(base, np.float64)
+        return kinematics.chain_poses(q, k["terms"], k["kinds"], k["joint_links"], base, frames)
 
     def frame_poses(self, configurations, frame, base=None):
         """World pose of ``frame`` (any link of the URDF, with or without geometry,
@@ -305,10 +304,10 @@ class Robot:
             raise InputError(f"one configuration of robot {self.name} expected, got "
                              f"{len(q)}; use link_pose_array() for many", key="joints")
         q = q.reshape(1, -1)
-        self._raise_outside(q, _place_links(q, k["limits"], k["actuated"], k["mimics"],
-                                           k["mimic_terms"], k["terms"], k["kinds"],
-                                           k["joint_links"], base, k["geometry"], poses,
-                                           versions, start))
+        self._raise_outside(q, kinematics.place_links(q, k["limits"], k["actuated"],
+                                                      k["mimics"], k["mimic_terms"], k["terms"],
+                                                      k["kinds"], k["joint_links"], base,
+                                                      k["geometry"], poses, versions, start))
 
     def link_poses(self, joints=None, base=None):
         """World pose (4x4) of every link that has geometry, by link name."""
@@ -407,8 +406,6 @@ def _kinematics(joints, base, geometry):
 
 
 _EYE = np.eye(4)
-#: one state's kinematics in one compiled call
-_place_links = kinematics.place_links
 
 
 def _joint(j):

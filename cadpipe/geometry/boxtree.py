@@ -1,4 +1,4 @@
-"""A box tree over triangles (or any boxes), built once and walked by compiled loops.
+"""A box tree over triangles (or any boxes), built once and walked by compiled loops (C).
 
 The boxes are sorted along a Morton (Z-order) curve of their centres and grouped
 into leaves of :data:`LEAF`; the tree is a complete binary tree in heap order
@@ -7,16 +7,16 @@ the last ``leaves`` nodes), built level by level. Node ``k`` at span ``s`` (leav
 under it) holds the sorted boxes ``[(k * s - leaves) * LEAF, (k * s - leaves + s) * LEAF)``,
 so a walk carries the span instead of looking ranges up. The self-intersection
 search (:mod:`cadpipe.solids.intersect`) walks it against itself, the winding
-number (:mod:`cadpipe.geometry.winding`) walks it for one point at a time.
+number (:mod:`cadpipe.geometry.winding`) walks it for one point at a time; both walks
+take this arithmetic from ``csrc/boxtree.c``, which builds the tree too.
 """
 
-import numba
 import numpy as np
 
-#: boxes per leaf of the tree
-LEAF = 4
+from cadpipe.core.kernels import native
 
-_jit = numba.njit(cache=True, nogil=True)
+#: boxes per leaf of the tree (``BOX_LEAF`` of ``csrc/boxtree.c``)
+LEAF = 4
 
 
 class BoxTree:
@@ -43,14 +43,18 @@ class BoxTree:
     def __init__(self, lo, hi):
         lo, hi = np.ascontiguousarray(lo, np.float64), np.ascontiguousarray(hi, np.float64)
         self.n = n = len(lo)
-        self.order = np.argsort(_morton(lo, hi), kind="stable")
+        # boxes in the Morton order of their centres (21 bits per axis over the centres'
+        # bounds), ties in input order
+        self.order = np.argsort(native.morton(lo, hi), kind="stable")
         leaves = 1 << int(np.ceil(np.log2(max(1, -(-n // LEAF)))))
-        self.lo, self.hi, self.node_lo, self.node_hi = _build(lo, hi, self.order, leaves)
+        # the boxes in that order padded with empty ones, and the nodes from the leaves up
+        self.lo, self.hi, self.node_lo, self.node_hi = native.box_build(lo, hi, self.order,
+                                                                        leaves)
 
     @classmethod
     def of_triangles(cls, triangles):
         """The tree of the boxes of ``triangles`` (F, 3, 3)."""
-        return cls(*triangle_boxes(np.ascontiguousarray(triangles, np.float64)))
+        return cls(*triangle_boxes(triangles))
 
     @property
     def leaves(self):
@@ -62,55 +66,6 @@ class BoxTree:
         return self.node_lo, self.node_hi, self.lo, self.hi, self.order, self.n
 
 
-@_jit
 def triangle_boxes(tri):
     """(F, 3) lower and upper corners of the triangles ``tri`` (F, 3, 3)."""
-    lo, hi = np.empty((len(tri), 3)), np.empty((len(tri), 3))
-    for f in range(len(tri)):
-        for axis in range(3):
-            lo[f, axis] = min(tri[f, 0, axis], tri[f, 1, axis], tri[f, 2, axis])
-            hi[f, axis] = max(tri[f, 0, axis], tri[f, 1, axis], tri[f, 2, axis])
-    return lo, hi
-
-
-@_jit
-def _build(lo, hi, order, leaves):
-    """Boxes in Morton order, padded to ``leaves * LEAF`` with empty boxes, and the node
-    boxes, leaves first, then each level from the one below."""
-    size = leaves * LEAF
-    sorted_lo, sorted_hi = np.full((size, 3), np.inf), np.full((size, 3), -np.inf)
-    node_lo, node_hi = np.full((2 * leaves, 3), np.inf), np.full((2 * leaves, 3), -np.inf)
-    for i in range(len(order)):
-        leaf = leaves + i // LEAF
-        for axis in range(3):
-            sorted_lo[i, axis], sorted_hi[i, axis] = lo[order[i], axis], hi[order[i], axis]
-            node_lo[leaf, axis] = min(node_lo[leaf, axis], sorted_lo[i, axis])
-            node_hi[leaf, axis] = max(node_hi[leaf, axis], sorted_hi[i, axis])
-    for node in range(leaves - 1, 0, -1):
-        for axis in range(3):
-            node_lo[node, axis] = min(node_lo[2 * node, axis], node_lo[2 * node + 1, axis])
-            node_hi[node, axis] = max(node_hi[2 * node, axis], node_hi[2 * node + 1, axis])
-    return sorted_lo, sorted_hi, node_lo, node_hi
-
-
-@_jit
-def _morton(lo, hi):
-    """Z-order curve key of each box's centre (21 bits per axis over the centres' bounds)."""
-    n = len(lo)
-    centre = (lo + hi) / 2
-    low = np.empty(3)
-    span = np.empty(3)
-    for axis in range(3):
-        low[axis] = centre[:, axis].min() if n else 0.0
-        span[axis] = centre[:, axis].max() - low[axis] if n else 0.0
-        if not span[axis] > 0:
-            span[axis] = 1.0
-    key = np.zeros(n, np.uint64)
-    for i in range(n):
-        k = np.uint64(0)
-        for axis in range(3):
-            cell = np.uint64((centre[i, axis] - low[axis]) / span[axis] * (2**21 - 1))
-            for bit in range(21):
-                k |= ((cell >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
-        key[i] = k
-    return key
+    return native.triangle_boxes(np.ascontiguousarray(tri, np.float64).reshape(-1, 3, 3))

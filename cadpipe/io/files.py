@@ -173,10 +173,10 @@ def file_mesh(vertices, faces, path, name, *, face_part=None, part_names=(), att
                         attributes=attributes)
 
 
-@formats.reader("ply", "off")
+@formats.reader("ply", "off", "dae")
 def read_trimesh(path):
-    """A Scene of a file trimesh reads (PLY, OFF; and an ASCII STL, through
-    :func:`cadpipe.io.stl.read_stl`), its face colours as part labels."""
+    """A Scene of a file trimesh reads (PLY, OFF, COLLADA as robot packages ship it; and an
+    ASCII STL, through :func:`cadpipe.io.stl.read_stl`), its face colours as part labels."""
     import trimesh
 
     key = FilePath(path).suffix.lower().lstrip(".")

@@ -9,6 +9,13 @@
 #include "points.c"
 #include "transform.c"
 #include "convex.c"
+#include "kinematics.c"
+#include "motion.c"
+#include "capsules.c"
+#include "fixture.c"
+#include "boxtree.c"
+#include "winding.c"
+#include "intersect.c"
 #include "clearance.c"
 #include "hierarchy.c"
 #include "chain_mesh.c"
@@ -22,6 +29,13 @@ static PyMethodDef *tables[] = {
     points_methods,
     transform_methods,
     convex_methods,
+    kinematics_methods,
+    motion_methods,
+    capsules_methods,
+    fixture_methods,
+    boxtree_methods,
+    winding_methods,
+    intersect_methods,
     clearance_methods,
     hierarchy_methods,
     chain_mesh_methods,
