@@ -50,7 +50,7 @@ import cadpipe
 from cadpipe.geometry.topology import edge_table
 from cadpipe.core.formats import export, load_mesh
 from cadpipe.io.normals import shading_normals
-from cadpipe.solids.intersect import self_intersections
+from cadpipe.geometry.intersect import self_intersections
 from cadpipe.solids.validity import check_mesh
 
 from _common import resident, settled

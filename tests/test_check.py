@@ -14,7 +14,8 @@ import cadpipe
 from cadpipe.cli import main
 from cadpipe.core.formats import export, load_mesh
 from cadpipe.io.text import float32_decimal
-from cadpipe.solids.intersect import box_pairs, float32_coordinates, self_intersections
+from cadpipe.core.float32 import coordinates as float32_coordinates
+from cadpipe.geometry.intersect import box_pairs, self_intersections
 
 
 def straight_pipe(length=2.0, radius=0.25, sides=12):

@@ -6,7 +6,7 @@ into leaves of :data:`LEAF`; the tree is a complete binary tree in heap order
 the last ``leaves`` nodes), built level by level. Node ``k`` at span ``s`` (leaves
 under it) holds the sorted boxes ``[(k * s - leaves) * LEAF, (k * s - leaves + s) * LEAF)``,
 so a walk carries the span instead of looking ranges up. The self-intersection
-search (:mod:`cadpipe.solids.intersect`) walks it against itself, the winding
+search (:mod:`cadpipe.geometry.intersect`) walks it against itself, the winding
 number (:mod:`cadpipe.geometry.winding`) walks it for one point at a time; both walks
 take this arithmetic from ``csrc/boxtree.c``, which builds the tree too.
 """

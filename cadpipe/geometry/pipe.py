@@ -17,6 +17,7 @@ import numpy as np
 
 from cadpipe import limits
 from cadpipe._validate import as_choice, as_int, as_positive
+from cadpipe.core import float32
 from cadpipe.core.distance import segment_distance
 from cadpipe.core.vec import cross
 from cadpipe.errors import GeometryError, InputError
@@ -32,7 +33,7 @@ from cadpipe.geometry.pieces import runs, unit_pieces, unit_points
 from cadpipe.geometry.rings import ring_basis
 from cadpipe.geometry.surfaces import (add_pipe_surfaces, cap_axes, cap_reach, round_corner_rows,
                                        tubes_of)
-from cadpipe.geometry.swept import FLOAT32_STEPS, hull_solid, welded_solid
+from cadpipe.geometry.swept import hull_solid, welded_solid
 
 CAP_STYLES = ("flat", "round")
 CORNER_STYLES = ("miter", "round")
@@ -552,7 +553,7 @@ class Pipe:
         than that along the path merge into one, which leaves a valid surface)."""
         edge = 2 * float(self.ring_radii.min()) * np.sin(np.pi / self.sides)
         largest = float(np.abs(self.path.points).max()) + float(self.ring_radii.max())
-        step = FLOAT32_STEPS * float(np.finfo(np.float32).eps) * largest
+        step = float32.step(largest, float32.FINEST)
         if edge < step:
             raise GeometryError(
                 f"the tube's ring edges ({edge:.3g} long) are finer than float32 files can "

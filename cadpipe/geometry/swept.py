@@ -9,6 +9,7 @@ the solid.
 
 import numpy as np
 
+from cadpipe.core import float32
 from cadpipe.errors import GeometryError
 from cadpipe.geometry.mesh import Mesh
 
@@ -38,25 +39,24 @@ def welded_solid(solid, part_of_id=None, **kwargs):
 
     A union leaves clusters of vertices where its pieces meet at grazing angles; STL,
     3MF, OBJ and PLY files (float32) would merge them, into edges shared by more than
-    two faces. A solid with vertices closer than :data:`FLOAT32_CLOSE` units in the
-    last place of its largest coordinate is simplified by manifold3d's own edge
-    collapses (:data:`FLOAT32_WELD`) and its clusters merged; a weld that changes the
-    volume, leaves an open or badly wound surface, or folds a sliver through a face is
-    not taken, and smaller distances are tried, down to :data:`FLOAT32_CLOSE` units;
-    failing all, the float64 solid as manifold3d made it.
+    two faces (:mod:`cadpipe.core.float32`). A solid with vertices closer than ``CLOSE``
+    float32 steps at its largest coordinate has its clusters merged, ``WELD`` steps
+    first; a weld that changes the volume, leaves an open or badly wound surface, or
+    folds a sliver through a face is not taken, and smaller distances are tried, down to
+    ``CLOSE`` steps; failing all, the float64 solid as manifold3d made it.
     """
     from scipy.spatial import cKDTree
 
     if solid.is_empty():
         raise GeometryError("the swept solid is empty")
     low, high = np.asarray(solid.bounding_box()).reshape(2, 3)
-    ulp = 2.0 ** -23 * max(float(np.abs(np.concatenate([low, high])).max()), 1e-30)
+    ulp = max(float32.step([low, high]), float32.EPS * 1e-30)
     volume = solid.volume()
     plain = Mesh.from_manifold(solid, part_of_id, **kwargs)
-    if not len(cKDTree(plain.vertices).query_pairs(FLOAT32_CLOSE * ulp,
+    if not len(cKDTree(plain.vertices).query_pairs(float32.CLOSE * ulp,
                                                    output_type="ndarray")):
         return plain                                 # nothing a float32 file would merge
-    for ulps in (FLOAT32_WELD, 4, FLOAT32_CLOSE):
+    for ulps in (float32.WELD, 4, float32.CLOSE):
         welded = _weld(plain, ulps * ulp)
         if welded is not None and abs(welded[0].volume - volume) <= WELD_VOLUME * volume \
                 and not _crossings_near(*welded, ulps * ulp):
@@ -69,7 +69,7 @@ def _crossings_near(mesh, moved, shift):
     most ``shift``) cuts through another face. The rest is manifold3d's surface as it
     made it, which does not, so only faces whose boxes come within ``shift`` of a moved
     face's box are tested."""
-    from cadpipe.solids.intersect import self_intersections
+    from cadpipe.geometry.intersect import self_intersections
 
     if not moved.any():
         return False
@@ -115,18 +115,6 @@ def _weld(mesh, tol):
                   part_names=mesh.part_names if part is not None else (),
                   attributes=mesh.attributes)
     return (welded, moved) if len(faces) and welded.is_oriented else None
-
-
-#: weld distance, in units in float32's last place (2**-23) of the largest coordinate
-FLOAT32_WELD = 16
-
-
-#: vertices closer than this (units in the last place) may round to one float32 point
-FLOAT32_CLOSE = 2
-
-
-#: features shorter than this many float32 steps at the largest coordinate are refused
-FLOAT32_STEPS = 1
 
 
 #: a weld may change the volume by this fraction at most (else the solid was too fine)

@@ -17,6 +17,7 @@ manifold3d's batch operations, and only where bounding boxes meet
 
 import numpy as np
 
+from cadpipe.core import float32
 from cadpipe.errors import GeometryError, MeshError
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.mesh import Mesh, reserve_ids
@@ -260,20 +261,13 @@ def carve(bodies, bores=(), name="solid", **mesh_options):
     return Mesh.from_manifold(solid, **mesh_options)
 
 
-def float32_step(bounds):
-    """A few float32 steps at the largest coordinate of ``bounds`` (min and max corner,
-    six numbers in any nesting): below it, files of float32 coordinates (STL, 3MF, GLB,
-    USD) cannot tell two points apart."""
-    largest = float(np.abs(np.asarray(bounds, dtype=np.float64)).max(initial=0.0))
-    return 4 * float(np.finfo(np.float32).eps) * largest
-
-
 def exportable(solid, part_of_id=None, **mesh_options):
     """The :class:`Mesh` of a boolean result, fit for files of float32 coordinates.
 
     What float32 cannot tell apart, a file merges: an edge shorter than
-    :func:`float32_step` becomes a point (manifold3d's ``simplify`` collapses it,
-    moving the surface less than that; those it leaves are collapsed too,
+    :data:`~cadpipe.core.float32.COLLAPSE` float32 steps becomes a point (manifold3d's
+    ``simplify`` collapses it, moving the surface less than that; those it leaves are
+    collapsed too,
     :func:`without_short_edges`), and copies of one point that the
     boolean kept apart, where the solid touches itself (a pinch), become one vertex
     with non-manifold edges (:func:`separated_pinches` moves each copy into its own
@@ -291,7 +285,7 @@ def exportable(solid, part_of_id=None, **mesh_options):
     -------
     mesh : Mesh
     """
-    step = float32_step(solid.bounding_box())
+    step = float32.step(solid.bounding_box(), float32.COLLAPSE)
     mesh = Mesh.from_manifold(without_short_edges(solid.simplify(step), step),
                               part_of_id=part_of_id, **mesh_options)
     return separated_pinches(mesh, step)

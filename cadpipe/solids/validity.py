@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from cadpipe.geometry.mesh import Mesh, winding_numbers
-from cadpipe.solids.intersect import self_intersections
+from cadpipe.geometry.intersect import self_intersections
 
 #: most vertices of a shell probed against another shell (those within its box)
 _PROBES = 64
@@ -79,7 +79,7 @@ def check_mesh(mesh: Mesh) -> dict[str, Any]:
     ``nonmanifold_edges`` (edges of three or more faces), ``winding_consistent``,
     ``outward``, ``volume``, ``area``, ``bounds`` (``[[min x, y, z], [max x, y, z]]``),
     ``bodies`` (connected pieces), ``intersecting_face_pairs`` (how many pairs of
-    faces cut through each other: :func:`~cadpipe.solids.intersect.self_intersections`)
+    faces cut through each other: :func:`~cadpipe.geometry.intersect.self_intersections`)
     and ``nested_shells`` (shells overlapping or inside other solids, see
     :func:`nested_shells`).
     """

@@ -18,7 +18,7 @@ import numpy as np
 
 from cadpipe.core.kernels import native
 from cadpipe.geometry.boxtree import BoxTree
-from cadpipe.solids.booleans import float32_step
+from cadpipe.core import float32
 
 
 def self_intersections(mesh):
@@ -37,24 +37,15 @@ def self_intersections(mesh):
 
 def touching_tolerance(mesh):
     """Distance below which faces touch rather than cross: 1e-9 of the mesh's size, or,
-    for coordinates a file rounded to float32 (:func:`float32_coordinates`: STL, GLB,
+    for coordinates a file rounded to float32 (:func:`cadpipe.core.float32.coordinates`: STL, GLB,
     USD, and the decimal text of 3MF and OBJ), a few float32 steps at the mesh's
     largest coordinate, so that rounding a solid that touches itself (two arm links
     meeting tangentially) does not turn it into one that crosses itself. Crossings
     deeper than that are representable in the file, and found."""
     tol = 1e-9 * float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
-    if len(mesh.vertices) and float32_coordinates(mesh.vertices):
-        tol = max(tol, 2 * float32_step(mesh.bounds))
+    if len(mesh.vertices) and float32.coordinates(mesh.vertices):
+        tol = max(tol, 2 * float32.step(mesh.bounds, float32.COLLAPSE))
     return tol
-
-
-def float32_coordinates(points):
-    """Are ``points`` float32 values, or their decimals printed with 9 significant digits
-    (as cadpipe writes 3MF and OBJ: each within a twelfth of a float32 step of its
-    value)? Every one within a quarter step of a float32 counts; coordinates computed
-    in float64 lie anywhere within half a step, so many of them never pass."""
-    rounded = points.astype(np.float32)
-    return bool((np.abs(points - rounded) <= 0.25 * np.spacing(np.abs(rounded))).all())
 
 
 def box_pairs(lo, hi):
