@@ -9,8 +9,9 @@
 #include "points.c"
 #include "transform.c"
 #include "convex.c"
+#include "topology.c"
 
-static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods};
+static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods, topology_methods};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "cadpipe.core._kernels",
                                     "cadpipe's compiled kernels (see csrc/native.h).", -1,
