@@ -10,8 +10,9 @@
 #include "transform.c"
 #include "convex.c"
 #include "topology.c"
+#include "normals.c"
 
-static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods, topology_methods};
+static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods, topology_methods, normals_methods};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "cadpipe.core._kernels",
                                     "cadpipe's compiled kernels (see csrc/native.h).", -1,
