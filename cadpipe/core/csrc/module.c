@@ -11,8 +11,12 @@
 #include "convex.c"
 #include "topology.c"
 #include "normals.c"
+#include "threemf.c"
+#include "meshfiles.c"
 
-static PyMethodDef *tables[] = {points_methods, transform_methods, convex_methods, topology_methods, normals_methods};
+static PyMethodDef *tables[] = {points_methods,   transform_methods, convex_methods,
+                                topology_methods, normals_methods,   threemf_methods,
+                                meshfiles_methods};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "cadpipe.core._kernels",
                                     "cadpipe's compiled kernels (see csrc/native.h).", -1,
