@@ -36,6 +36,58 @@ static int copies_grow(Copies *c)
     return 1;
 }
 
+/* The pass of copies_per_label over ``nf`` faces: fills ``out`` and ``own`` (V) and
+ * ``copies``; ``first_copy`` (V) is scratch. Returns 0, 1 when out of memory, 2 for a
+ * face index outside [0, nv). Inlined with constant ``lwide`` and ``owide``, so each
+ * pair of index types gets a loop of its own. */
+static inline int copies_pass(const int64_t *fc, npy_intp nf, const void *labels, int lwide,
+                              int64_t nv, void *out, int owide, int64_t *own,
+                              int64_t *first_copy, Copies *copies)
+{
+    for (int64_t v = 0; v < nv; v++)
+        own[v] = first_copy[v] = -1;
+    int64_t *label_of = NULL, *next = NULL;         /* copies->label, ->next while it holds */
+    for (npy_intp f = 0; f < nf; f++) {
+        int64_t label = lwide ? ((const int64_t *)labels)[f] : ((const int32_t *)labels)[f];
+        for (int k = 0; k < 3; k++) {
+            int64_t v = fc[3 * f + k], slot;
+            if (v < 0 || v >= nv)
+                return 2;
+            if (own[v] < 0)
+                own[v] = label;
+            if (own[v] == label)
+                slot = v;
+            else {
+                int64_t c = first_copy[v];
+                while (c >= 0 && label_of[c] != label)
+                    c = next[c];
+                if (c < 0) {
+                    if (copies->count == copies->room) {
+                        if (!copies_grow(copies))
+                            return 1;
+                        label_of = copies->label;
+                        next = copies->next;
+                    }
+                    c = copies->count++;
+                    copies->of[c] = v;
+                    label_of[c] = label;
+                    next[c] = first_copy[v];
+                    first_copy[v] = c;
+                }
+                slot = nv + c;
+            }
+            if (owide)
+                ((int64_t *)out)[3 * f + k] = slot;
+            else
+                ((int32_t *)out)[3 * f + k] = (int32_t)slot;
+        }
+    }
+    for (int64_t v = 0; v < nv; v++)
+        if (own[v] < 0)
+            own[v] = 0;
+    return 0;
+}
+
 /* copies_per_label(faces (F, 3) int64, labels (F,) int32|int64, n_vertices, out (F, 3)
  * int32|int64) -> (own_label (V,), copy_of (E,), copy_label (E,)) int64: fill ``out`` with
  * faces whose corners each reach a vertex of their face's label, in one linear pass. A
@@ -74,48 +126,18 @@ KERNEL(copies_per_label)
     int64_t *own = PyArray_DATA(own_arr);
     const int64_t *fc = I64(faces);
     Copies copies = {NULL, NULL, NULL, 0, 0};
-    int failed = 0;                                 /* 1: out of memory, 2: an index */
+    int failed;
     Py_BEGIN_ALLOW_THREADS
-    for (int64_t v = 0; v < n_vertices; v++)
-        own[v] = first_copy[v] = -1;
-    for (npy_intp f = 0; f < nf && !failed; f++) {
-        int64_t label = lwide ? I64(labels)[f] : I32(labels)[f];
-        for (int k = 0; k < 3; k++) {
-            int64_t v = fc[3 * f + k], slot;
-            if (v < 0 || v >= n_vertices) {
-                failed = 2;
-                break;
-            }
-            if (own[v] < 0)
-                own[v] = label;
-            if (own[v] == label)
-                slot = v;
-            else {
-                int64_t c = first_copy[v];
-                while (c >= 0 && copies.label[c] != label)
-                    c = copies.next[c];
-                if (c < 0) {
-                    if (copies.count == copies.room && !copies_grow(&copies)) {
-                        failed = 1;
-                        break;
-                    }
-                    c = copies.count++;
-                    copies.of[c] = v;
-                    copies.label[c] = label;
-                    copies.next[c] = first_copy[v];
-                    first_copy[v] = c;
-                }
-                slot = n_vertices + c;
-            }
-            if (owide)
-                I64(out)[3 * f + k] = slot;
-            else
-                I32(out)[3 * f + k] = (int32_t)slot;
-        }
-    }
-    for (int64_t v = 0; v < n_vertices; v++)
-        if (own[v] < 0)
-            own[v] = 0;
+    if (lwide)
+        failed = owide ? copies_pass(fc, nf, labels.data, 1, n_vertices, out.data, 1, own,
+                                     first_copy, &copies)
+                       : copies_pass(fc, nf, labels.data, 1, n_vertices, out.data, 0, own,
+                                     first_copy, &copies);
+    else
+        failed = owide ? copies_pass(fc, nf, labels.data, 0, n_vertices, out.data, 1, own,
+                                     first_copy, &copies)
+                       : copies_pass(fc, nf, labels.data, 0, n_vertices, out.data, 0, own,
+                                     first_copy, &copies);
     Py_END_ALLOW_THREADS
     PyMem_RawFree(first_copy);
     PyArrayObject *of_arr = NULL, *label_arr = NULL;
@@ -146,6 +168,38 @@ KERNEL(copies_per_label)
     return Py_BuildValue("NNN", own_arr, of_arr, label_arr);
 }
 
+/* Whether byte ``c`` is one of C's white space: " \t\n\v\f\r". */
+static inline unsigned meshfiles_space(unsigned c)
+{
+    return (c == 32) | ((uint8_t)(c - 9) < 5);
+}
+
+/* How many words b[start:end] holds: bytes not blank after a blank one (or the start),
+ * blank by meshfiles_space (compares, which vectorize, where a table does not). */
+static int64_t meshfiles_words(const uint8_t *b, int64_t start, int64_t end)
+{
+    if (start >= end)
+        return 0;
+    int64_t words = !meshfiles_space(b[start]);
+    for (int64_t i = start + 1; i < end; i++)
+        words += meshfiles_space(b[i - 1]) & (meshfiles_space(b[i]) ^ 1u);
+    return words;
+}
+
+/* meshfiles_words with the blanks of ``blank`` (256 entries, 0 or 1). */
+static int64_t meshfiles_words_by(const uint8_t *b, int64_t start, int64_t end,
+                                  const uint8_t *blank)
+{
+    int64_t words = 0;
+    unsigned before = 1;                    /* the line's start counts as a blank */
+    for (int64_t i = start; i < end; i++) {
+        unsigned here = blank[b[i]];
+        words += before & (here ^ 1u);
+        before = here;
+    }
+    return words;
+}
+
 /* words_per_line(buf (N,) uint8, line_starts (L,) int64, space (256,) bool) -> (L,)
  * int64: how many words (runs of bytes that are not ``space``) each line of ``buf``
  * holds; line i runs from line_starts[i] to the next start (the last to the end). */
@@ -172,17 +226,17 @@ KERNEL(words_per_line)
         return NULL;
     int64_t *counts = PyArray_DATA(counts_arr);
     const uint8_t *b = U8(buf);
-    const npy_bool *blank = BOOL(space);
+    uint8_t blank[256];                     /* 0 or 1: a word starts at a 0 after a 1 */
+    int ascii = 1;                          /* the table is C's isspace: " \t\n\v\f\r" */
+    for (int c = 0; c < 256; c++) {
+        blank[c] = BOOL(space)[c] != 0;
+        ascii &= blank[c] == meshfiles_space(c);
+    }
     Py_BEGIN_ALLOW_THREADS
     for (npy_intp line = 0; line < lines; line++) {
-        int64_t end = line + 1 < lines ? starts[line + 1] : (int64_t)buf.size, words = 0;
-        int inside = 0;
-        for (int64_t i = starts[line]; i < end; i++) {
-            int is_blank = blank[b[i]] != 0;
-            words += !is_blank && !inside;
-            inside = !is_blank;
-        }
-        counts[line] = words;
+        int64_t start = starts[line], end = line + 1 < lines ? starts[line + 1] : buf.size;
+        counts[line] = ascii ? meshfiles_words(b, start, end)
+                             : meshfiles_words_by(b, start, end, blank);
     }
     Py_END_ALLOW_THREADS
     return (PyObject *)counts_arr;
