@@ -20,7 +20,7 @@ passes over every corner cost several times the plain write of a GLB. A pipe's m
 its runs of rings (``Mesh.ring_runs``): its inner rings take their normals
 from their ring neighbours in one lighter pass, checked against the faces
 between them, and only the faces around end rings and caps go through the
-general passes (:func:`_ring_shading`; 3 against 21 ms for a million
+general passes (:func:`_ring_shading`; 3 against 18 ms for a million
 triangles). The result is cached on the mesh (an immutable value) per crease
 angle, so a scene written as USD and GLB computes it once.
 """
