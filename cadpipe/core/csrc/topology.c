@@ -179,10 +179,13 @@ KERNEL(edge_rows)
         return NULL;
     }
     npy_intp unique = 0;
+    const void *hi = high.data, *ed = edge.data;
+    Py_BEGIN_ALLOW_THREADS
     for (npy_intp v = 0; v < count; v++)
         for (int64_t i = st[v]; i < st[v + 1]; i++)
-            if (i == st[v] || index_at(high.data, hwide, i) != index_at(high.data, hwide, i - 1))
+            if (i == st[v] || index_at(hi, hwide, i) != index_at(hi, hwide, i - 1))
                 unique++;
+    Py_END_ALLOW_THREADS
     npy_intp udims[1] = {unique}, idims[1] = {high.size};
     PyArrayObject *keys_arr = cp_new(1, udims, NPY_INT64);
     PyArrayObject *counts_arr = cp_new(1, udims, NPY_INT64);
@@ -195,7 +198,6 @@ KERNEL(edge_rows)
     }
     int64_t *keys = PyArray_DATA(keys_arr), *counts = PyArray_DATA(counts_arr),
             *inverse = PyArray_DATA(inverse_arr);
-    const void *hi = high.data, *ed = edge.data;
     Py_BEGIN_ALLOW_THREADS
     memset(counts, 0, sizeof(int64_t) * (size_t)unique);
     int64_t row = -1;
