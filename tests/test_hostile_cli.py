@@ -277,7 +277,7 @@ import importlib.metadata as metadata
 if sys.argv[1] == "no-entry-points":
     real = metadata.entry_points                  # a source tree that was never installed:
     metadata.entry_points = lambda **kw: [] if kw.get("group", "").startswith("cadpipe") \
-        else real(**kw)                           # no cadpipe plugins (numba still asks)
+        else real(**kw)                           # no cadpipe plugins
 from cadpipe.core.formats import writers as exporters
 from cadpipe.spec import part_kinds
 barrier, found = threading.Barrier(6), []

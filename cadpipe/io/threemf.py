@@ -32,12 +32,12 @@ from typing import NamedTuple
 from xml.etree import ElementTree
 from xml.sax.saxutils import quoteattr
 
-import numba
 import numpy as np
 
 from cadpipe import limits
 from cadpipe.errors import InputError, MeshError, shown
 from cadpipe.geometry.mesh import merge_tables
+from cadpipe.core.kernels import native
 from cadpipe.core.transform import placed_points
 from cadpipe.core import formats
 from cadpipe.io.files import atomic_path, file_mesh
@@ -190,11 +190,11 @@ def read_3mf(path):
     a build past ``max_triangles`` before any of it is placed.
 
     The tables of vertices and triangles, nearly all of a file, are read by one
-    compiled scan each (:func:`_scan`); the rest of the XML, a few elements per
-    object, by ElementTree. A model the scan cannot read (comments, CDATA, a
-    prefix on the core namespace) is read by ElementTree alone, more slowly.
+    compiled scan each (``scan_3mf``, ``csrc/threemf.c``); the rest of the XML, a
+    few elements per object, by ElementTree. A model the scan cannot read
+    (comments, CDATA, a prefix on the core namespace) is read by ElementTree
+    alone, more slowly.
     """
-
     try:
         archive = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError, ValueError) as exc:
@@ -332,7 +332,7 @@ def _tables_taken_out(data, part, path, tables, spent):
     scan into ``tables`` (numbered) and replaced by an empty element marked with its
     number, and the triangles and bytes of arrays read with those ``spent`` before:
     what is left is a few elements per object for ElementTree. Each table's rows
-    are counted first (:func:`_extent`) and checked against the budgets
+    are counted first (``extent_3mf``, ``csrc/threemf.c``) and checked against the budgets
     (``max_triangles``; ``max_unpacked_bytes`` for its arrays) before it is read.
     Raises :class:`_Unscannable` for a table holding markup the scan does not read."""
     text = np.frombuffer(data, np.uint8)
@@ -347,7 +347,7 @@ def _tables_taken_out(data, part, path, tables, spent):
         start = stop = end = close + 1
         rows = 0
         if data[close - 1] != ord("/"):                     # not <vertices/>: rows
-            rows, stop = _extent(text, start, np.frombuffer(_ROW[name], np.uint8))
+            rows, stop = native.extent_3mf(text, start, np.frombuffer(_ROW[name], np.uint8))
             end = data.find(b">", stop) + 1
             if rows < 0 or not data.startswith(b"</" + name, stop) or \
                     data[stop + 2 + len(name):end - 1].strip():
@@ -434,9 +434,9 @@ def _table(element, tables, row, name, path):
 
 
 def _scanned(text, start, stop, rows, integer):
-    """A table's numbers from ``text[start:stop]`` (``rows`` rows) by :func:`_scan`, as
-    :func:`_table` returns them; raises :class:`_Unscannable` where the scan cannot
-    read it."""
+    """A table's numbers from ``text[start:stop]`` (``rows`` rows) by the C scan
+    (``scan_3mf``), as :func:`_table` returns them; raises :class:`_Unscannable`
+    where the scan cannot read it."""
     names = _TRIANGLE_ATTRIBUTES if integer else ("x", "y", "z")
     keys = np.zeros((len(names), 8), np.uint8)
     for i, n in enumerate(names):
@@ -448,236 +448,15 @@ def _scanned(text, start, stop, rows, integer):
     element = np.frombuffer(b"triangle" if integer else b"vertex", np.uint8)
     slow = np.zeros(3, np.int64)   # numbers the compiled parse cannot round exactly; extra
     arguments = (text, start, stop, element, keys, lengths, floats, ints, extra, integer)
-    if not _scan(*arguments, np.empty(0, np.uint8), np.empty(0, np.int64), slow):
+    if not native.scan_3mf(*arguments, np.empty(0, np.uint8), np.empty(0, np.int64), slow):
         raise _Unscannable
     if slow[0]:                    # their text, gathered, then parsed by numpy at once
         spans, where = np.empty(slow[1], np.uint8), np.empty(slow[0], np.int64)
-        _scan(*arguments, spans, where, slow)
+        native.scan_3mf(*arguments, spans, where, slow)
         floats.reshape(-1)[where] = np.array(spans.tobytes().split(), dtype=np.float64)
     if not integer:
         return floats
     return ints, extra if slow[2] else None
-
-
-@numba.njit(cache=True, nogil=True)
-def _extent(text, start, element):
-    """``(rows, stop)``: how many ``<element`` rows the table from ``text[start]`` holds
-    and where the closing tag after them starts; ``(-1, -1)`` for any other markup
-    in it (comments, other elements)."""
-    rows, at, n, width = 0, start, len(text), len(element)
-    while True:
-        while at < n and text[at] != 60:
-            at += 1
-        if at + 2 + width >= n:
-            return -1, -1
-        closing = text[at + 1] == 47
-        first = at + 1 + closing
-        same = True
-        for i in range(width):
-            if text[first + i] != element[i]:
-                same = False
-                break
-        follows = text[first + width]
-        ends = follows == 32 or follows == 10 or follows == 13 or follows == 9 or \
-            follows == 62 or (follows == 47 and not closing)
-        if not (same and ends):
-            return (rows, at) if closing else (-1, -1)
-        rows += not closing
-        at = first
-
-
-#: 10**k for k in 0..22, exact in float64 (Clinger's fast path)
-_POWERS = np.array([10.0 ** k for k in range(23)])
-
-
-@numba.njit(cache=True, nogil=True)
-def _skip_blanks(text, at, stop):
-    while at < stop and (text[at] == 32 or text[at] == 10 or text[at] == 13 or text[at] == 9):
-        at += 1
-    return at
-
-
-@numba.njit(cache=True, nogil=True)
-def _number(text, start, stop, integer):
-    """The number ``text[start:stop]`` (3MF's ST_Number; an integer where ``integer``):
-    ``(value, state)``, state 0 read, 1 exact only by a full parse (more than 18
-    digits, or beyond 2**53 or 10**22: Clinger's fast path rounds once, exactly,
-    within those), 2 not a number. Integers come back in ``value`` as floats only
-    up to 2**53; larger ones are state 2 (no vertex index is that large)."""
-    at, negative = start, False
-    if at < stop and (text[at] == 45 or text[at] == 43):
-        negative = text[at] == 45
-        at += 1
-    mantissa, scale, digits, inexact, seen = 0, 0, 0, False, False
-    point = False
-    while at < stop:
-        c = text[at]
-        if c == 46 and not point and not integer:
-            point = True
-        elif 48 <= c <= 57:
-            seen = True
-            if mantissa == 0 and c == 48:
-                if point:                               # a leading zero
-                    scale -= 1
-            elif digits < 18:
-                mantissa = mantissa * 10 + (c - 48)
-                digits += 1
-                if point:
-                    scale -= 1
-            else:
-                inexact |= c != 48                      # a dropped digit
-                if not point:
-                    scale += 1
-        else:
-            break
-        at += 1
-    if not seen:
-        return 0.0, 2
-    if at < stop and (text[at] == 101 or text[at] == 69) and not integer:
-        at += 1
-        sign = 1
-        if at < stop and (text[at] == 45 or text[at] == 43):
-            sign = -1 if text[at] == 45 else 1
-            at += 1
-        exponent, given = 0, False
-        while at < stop and 48 <= text[at] <= 57 and exponent < 100000:
-            exponent = exponent * 10 + (text[at] - 48)
-            given = True
-            at += 1
-        if not given:
-            return 0.0, 2
-        scale += sign * exponent
-    if at != stop or (integer and negative and mantissa):
-        return 0.0, 2
-    value = float(mantissa)
-    if mantissa == 0:
-        value = 0.0
-    elif inexact or mantissa > 2 ** 53 or scale < -22 or scale > 22:
-        return 0.0, 1 if not integer else 2
-    elif scale < 0:
-        value /= _POWERS[-scale]
-    else:
-        value *= _POWERS[scale]
-    return -value if negative else value, 0
-
-
-@numba.njit(cache=True, nogil=True)
-def _scan(text, start, stop, element, keys, lengths, floats, ints, extra, integer, spans,
-          where, slow):
-    """Read a table of ``<element a="..." .../>`` rows (``text[start:stop]``, blanks
-    between them): the value of attribute ``keys[k][:lengths[k]]`` goes to column k
-    of ``ints`` or ``floats`` (rows, 3) for the first three (required), of ``extra``
-    (rows, K - 3; ``slow[2]`` set where any is given) for the rest. False for what
-    this scan does not read (comments, entities, other elements, a row too many or
-    few, a malformed number): the caller then uses ElementTree. Numbers that need an
-    exact full parse are counted in ``slow[:2]`` (count, bytes) and, when ``where``
-    has room, their text is gathered into ``spans`` (blank-separated) and their
-    flat positions into ``where``."""
-    rows, width = len(extra), len(keys)
-    at, row, count, used = start, 0, 0, 0
-    gather = len(where) > 0
-    while True:
-        at = _skip_blanks(text, at, stop)
-        if at >= stop:
-            break
-        if text[at] != 60 or row >= rows or at + 1 + len(element) > stop:
-            return False
-        at += 1
-        for i in range(len(element)):
-            if text[at + i] != element[i]:
-                return False
-        at += len(element)
-        found = 0
-        while True:
-            after = at
-            at = _skip_blanks(text, at, stop)
-            if at >= stop:
-                return False
-            c = text[at]
-            if c == 47:                                   # "/>"
-                if at + 1 >= stop or text[at + 1] != 62:
-                    return False
-                at += 2
-                break
-            if c == 62:                                   # ">" ... "</element>"
-                at = _skip_blanks(text, at + 1, stop)
-                if at + 2 + len(element) >= stop or text[at] != 60 or text[at + 1] != 47:
-                    return False
-                at += 2
-                for i in range(len(element)):
-                    if text[at + i] != element[i]:
-                        return False
-                at = _skip_blanks(text, at + len(element), stop)
-                if at >= stop or text[at] != 62:
-                    return False
-                at += 1
-                break
-            if after == at:                               # attributes need blanks between
-                return False
-            name = at
-            while at < stop and text[at] != 61 and text[at] > 32 and text[at] != 62 \
-                    and text[at] != 47:
-                at += 1
-            name_end = at
-            at = _skip_blanks(text, at, stop)
-            if at >= stop or text[at] != 61:
-                return False
-            at = _skip_blanks(text, at + 1, stop)
-            if at >= stop or (text[at] != 34 and text[at] != 39):
-                return False
-            quote = text[at]
-            value = at + 1
-            at = value
-            while at < stop and text[at] != quote:
-                if text[at] == 38 or text[at] == 60:      # an entity or "<": not read here
-                    return False
-                at += 1
-            if at >= stop:
-                return False
-            value_end = at
-            at += 1
-            column = -1
-            for k in range(width):
-                if lengths[k] == name_end - name:
-                    same = True
-                    for i in range(lengths[k]):
-                        if text[name + i] != keys[k, i]:
-                            same = False
-                            break
-                    if same:
-                        column = k
-                        break
-            if column < 0:
-                continue                                  # an attribute not asked for
-            if found & (1 << column):
-                return False
-            found |= 1 << column
-            number, state = _number(text, value, value_end, integer)
-            if state == 2:
-                return False
-            if column >= 3:
-                extra[row, column - 3] = np.int64(number)
-                slow[2] = 1
-            elif integer:
-                ints[row, column] = np.int64(number)
-            elif state == 0:
-                floats[row, column] = number
-            else:
-                if gather:
-                    where[count] = row * width + column
-                    for i in range(value, value_end):
-                        spans[used] = text[i]
-                        used += 1
-                    spans[used] = 32
-                    used += 1
-                else:
-                    used += value_end - value + 1
-                count += 1
-        if found & 7 != 7:
-            return False
-        row += 1
-    slow[0], slow[1] = count, used
-    return row == rows
 
 
 def _object(models, key, path):

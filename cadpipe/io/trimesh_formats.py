@@ -21,9 +21,9 @@ import warnings
 from functools import partial
 from pathlib import Path as FilePath
 
-import numba
 import numpy as np
 
+from cadpipe.core.kernels import native
 from cadpipe.errors import ExportError, MeshError
 from cadpipe.core import formats
 from cadpipe.core.units import UNITS
@@ -142,10 +142,9 @@ def write_ply(obj, path, *, ascii=False, units="m", layout="scene"):
             fh.write(block.tobytes())
 
 
-@numba.njit(cache=True, nogil=True)
 def _copies_per_label(faces, labels, n_vertices, out):
     """Fill ``out`` (F, 3) with faces whose corners each reach a vertex of their face's
-    label: one linear pass.
+    label: one linear pass (C, ``csrc/meshfiles.c``).
 
     A vertex keeps its index for the first label that reaches it; each further
     label at it gets a copy numbered from ``n_vertices`` on (found through a
@@ -157,36 +156,15 @@ def _copies_per_label(faces, labels, n_vertices, out):
     copy_of : (E,) int64 vertex each copy repeats
     copy_label : (E,) int64 its label
     """
-    own_label = np.full(n_vertices, -1, np.int64)
-    first_copy = np.full(n_vertices, -1, np.int64)
-    copy_of = np.empty(16, np.int64)
-    copy_label = np.empty(16, np.int64)
-    next_copy = np.empty(16, np.int64)
-    n_copies = 0
-    for f in range(len(faces)):
-        label = labels[f]
-        for k in range(3):
-            v = faces[f, k]
-            if own_label[v] < 0:
-                own_label[v] = label
-            if own_label[v] == label:
-                out[f, k] = v
-                continue
-            c = first_copy[v]
-            while c >= 0 and copy_label[c] != label:
-                c = next_copy[c]
-            if c < 0:
-                if n_copies == len(copy_of):          # grow by doubling: linear in total
-                    copy_of = np.concatenate((copy_of, np.empty_like(copy_of)))
-                    copy_label = np.concatenate((copy_label, np.empty_like(copy_label)))
-                    next_copy = np.concatenate((next_copy, np.empty_like(next_copy)))
-                c = n_copies
-                copy_of[c], copy_label[c], next_copy[c] = v, label, first_copy[v]
-                first_copy[v] = c
-                n_copies += 1
-            out[f, k] = n_vertices + c
-    own_label[own_label < 0] = 0
-    return own_label, copy_of[:n_copies], copy_label[:n_copies]
+    return native.copies_per_label(np.ascontiguousarray(faces, np.int64), _index(labels),
+                                   int(n_vertices), out)
+
+
+def _index(values):
+    """``values`` as a C-ordered int32 or int64 array (the kernels read either)."""
+    values = np.asarray(values)
+    return np.ascontiguousarray(values, values.dtype if values.dtype in (np.int32, np.int64)
+                                else np.int64)
 
 
 def _faces_from(faces, offset, rows):
@@ -345,22 +323,7 @@ def _numbers(text, dtype):
     with warnings.catch_warnings():       # a stray word ends the parse early: caught below
         warnings.simplefilter("ignore", DeprecationWarning)
         values = np.fromstring(text, dtype=dtype, sep=" ")
-    per_line = _words_per_line(buf, line_starts, _SPACE)
+    per_line = native.words_per_line(buf, line_starts, _SPACE)
     if len(values) != per_line.sum():
         raise ValueError("not numbers")
     return values, per_line
-
-
-@numba.njit(cache=True, nogil=True)
-def _words_per_line(buf, line_starts, space):
-    """(L,) how many blank-separated words each line of ``buf`` holds."""
-    counts = np.zeros(len(line_starts), np.int64)
-    for line in range(len(line_starts)):
-        end = line_starts[line + 1] if line + 1 < len(line_starts) else len(buf)
-        inside = False
-        for i in range(line_starts[line], end):
-            blank = space[buf[i]]
-            if not blank and not inside:
-                counts[line] += 1
-            inside = not blank
-    return counts

@@ -92,7 +92,11 @@ def _group(api, build):
     keyword arguments, and every other ``pipe`` key as a default for the tables (a table
     may override it), so a new option of the API is a key here too. ``build(ctx, tubes,
     **own)`` gets the tables and the defaults they take."""
-    own = [p for p in _keys(api) if p.name not in ("pipes", "pipe")]
+    # the build's defaults win: a chain without a wall is a solid chain (splice)
+    defaults = {n: p.default for n, p in inspect.signature(build).parameters.items()
+                if p.kind is p.KEYWORD_ONLY and p.default is not p.empty}
+    own = [p.replace(default=defaults.get(p.name, p.default)) for p in _keys(api)
+           if p.name not in ("pipes", "pipe")]
     names = {p.name for p in own}
     shared = [p.replace(default=None) for p in pipe.__signature__.parameters.values()
               if p.kind is p.KEYWORD_ONLY and p.name not in names | {"path"}]

@@ -183,7 +183,7 @@ KERNEL(morton)
         uint64_t k = 0;
         for (int axis = 0; axis < 3; axis++) {
             /* in [0, 2**21 - 1] for finite centres; NaN (the centre of an infinite box)
-             * is the last cell, as numba's conversion (AVX-512's) had it */
+             * is the last cell, the same on every CPU */
             double x = (centre[3 * i + axis] - low[axis]) / span[axis] * (double)((1 << 21) - 1);
             uint64_t cell = x >= 0.0 && x < 18446744073709551616.0 ? (uint64_t)x : 0x1fffff;
             k |= spread3(cell) << axis;

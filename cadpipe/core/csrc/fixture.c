@@ -94,7 +94,7 @@ static void locate_one(const Centreline *c, const double *p, npy_intp k, Located
         top += 2;
     }
     int64_t u = best_unit;
-    if (u < 0)               /* no unit nearer than NaN (a NaN point): numba read the last */
+    if (u < 0)               /* no unit nearer than NaN (a NaN point): the last one */
         u += c->units;
     double t = best_t;
     out->sd[k] = best_wall;

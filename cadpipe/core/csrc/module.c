@@ -9,6 +9,7 @@
 #include "points.c"
 #include "transform.c"
 #include "convex.c"
+#include "topology.c"
 #include "kinematics.c"
 #include "motion.c"
 #include "capsules.c"
@@ -23,12 +24,16 @@
 #include "packed.c"
 #include "narrow.c"
 #include "funnel.c"
+#include "normals.c"
+#include "threemf.c"
+#include "meshfiles.c"
 
 /* one table a line */
 static PyMethodDef *tables[] = {
     points_methods,
     transform_methods,
     convex_methods,
+    topology_methods,
     kinematics_methods,
     motion_methods,
     capsules_methods,
@@ -43,6 +48,9 @@ static PyMethodDef *tables[] = {
     packed_methods,
     narrow_methods,
     funnel_methods,
+    normals_methods,
+    threemf_methods,
+    meshfiles_methods,
 };
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "cadpipe.core._kernels",
