@@ -4,14 +4,19 @@ The pipeline, top to bottom: :class:`Path` (step S1) -> frames and rings ->
 :class:`Pipe` (S2-S4) -> :func:`splice` (S5) -> :class:`Mesh`, then
 :class:`Assembly` (booleans) and files; :class:`CollisionWorld` beside it.
 
-The public API is what ``__all__`` names here (plus ``cadpipe.primitives`` and
-``cadpipe.collision.__all__``): those names follow the deprecation policy (a
-renamed name warns for one release). The subpackages' other modules are the
-layout of the implementation (see docs/architecture.md) and may change.
+The public API is what ``__all__`` names here (plus ``cadpipe.primitives``,
+``cadpipe.batch``, ``cadpipe.spec`` and ``cadpipe.collision.__all__``). The
+subpackages' other modules are the layout of the implementation (see
+docs/architecture.md) and may change while cadpipe is 0.x.
 """
 
-from cadpipe import batch, io, limits  # noqa: F401  (cadpipe.batch.run, cadpipe.limits;
-#                                                        io registers the file formats)
+# USD's libraries are loaded here, in the importing thread: loading them releases the GIL
+# inside the dynamic loader, and a second thread loading any extension module meanwhile
+# waits for the loader's lock holding the GIL (8 threads started right after import hung
+# in 3 of 5 runs). 0.1 s of CPU.
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdShade, Vt  # noqa: F401
+
+from cadpipe import io, limits  # noqa: F401  (cadpipe.limits; io registers the file formats)
 from cadpipe.collision import CollisionWorld
 from cadpipe.errors import (CadpipeError, ExportError, GeometryError, InputError, LimitError,
                             MeshError, SpecError)
@@ -32,4 +37,14 @@ __all__ = ["CadpipeError", "CollisionWorld", "ExportError", "GeometryError", "In
            "splice"]
 __all__ += ["Assembly", "HollowChain", "HollowPipe", "Junction", "LimitError", "batch", "limits",
             "load"]
+
+
+def __getattr__(name):
+    """``cadpipe.batch`` on first use: Dask and the job engine cost a fifth of a second
+    at import, which a script that never runs a batch need not pay."""
+    if name == "batch":
+        import importlib
+
+        return importlib.import_module("cadpipe.batch")
+    raise AttributeError(f"module 'cadpipe' has no attribute {name!r}")
 
