@@ -78,9 +78,10 @@ def test_rays_through_vertices_and_edges_fall_back_to_the_exact_sum():
     points = points[np.abs(trimesh.proximity.signed_distance(mesh.to_trimesh(), points)) > 1e-9]
     tree = WindingTree(mesh.vertices, mesh.faces)
     out, unsure = np.zeros(len(points)), np.zeros(len(points), np.bool_)
-    from cadpipe.core._kernels import crossings as _crossings
+    from cadpipe.core.kernels import native
 
-    _crossings(points, tree.tree.node_lo, tree.tree.node_hi, tree.triangles, out, unsure)
+    native.crossings(points, tree.tree.node_lo, tree.tree.node_hi, tree.triangles,
+                     tree.tree.leaf_size, out, unsure)
     assert unsure.sum() > 50                       # the fallback is exercised
     assert_matches(mesh, points)
 

@@ -96,21 +96,3 @@ def kdop_polytope(points, obb):
         return middle + scale * vertices[ConvexHull(vertices).vertices]
     except (QhullError, ValueError):
         return corners
-
-
-def box_levels(lo, hi, *maxima):
-    """A perfect binary tree of boxes over ``2**d`` leaf boxes ``lo``, ``hi`` (L, 3)
-    (empty leaves: ``inf``, ``-inf``), each node the union of its two children, in
-    heap order (root first; node ``k``'s children ``2k + 1``, ``2k + 2``).
-
-    Returns ``(lo, hi, *maxima)`` over all ``2L - 1`` nodes; each of ``maxima``
-    (L,) is carried up as the larger of the children's.
-    """
-    levels = [(lo, hi, *maxima)]
-    while len(levels[-1][0]) > 1:
-        below = levels[-1]
-        levels.append((np.minimum(below[0][0::2], below[0][1::2]),
-                       np.maximum(below[1][0::2], below[1][1::2]),
-                       *(np.maximum(v[0::2], v[1::2]) for v in below[2:])))
-    return tuple(np.concatenate([level[k] for level in levels[::-1]])
-                 for k in range(len(levels[0])))

@@ -38,7 +38,8 @@ seen by the walk; :func:`cadpipe.collision.narrow.collide` adds it.
 
 import numpy as np
 
-from cadpipe.collision.bounds import box_levels, rounding_slack
+from cadpipe.collision.bounds import rounding_slack
+from cadpipe.core.tree import BoxTree
 from cadpipe.core.kernels import native
 
 
@@ -68,17 +69,15 @@ class TriangleTree:
         vertices = np.asarray(vertices, np.float64)
         corners = vertices[np.asarray(faces)]                               # (F, 3, 3)
         count = len(corners)
-        self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
-        order = np.empty(count, np.int64)
-        native.median_order(np.ascontiguousarray(corners.mean(axis=1)), self.depth, order)
-        leaves = 2 ** self.depth
+        # the one box tree, split at medians of the triangles' centroids, a triangle a leaf
+        tree = BoxTree(corners.min(axis=1), corners.max(axis=1), order="median", leaf_size=1,
+                       centres=corners.mean(axis=1))
+        self.depth, leaves, order = tree.depth, tree.leaves, tree.order
         self.order = np.full(leaves, -1, np.int64)
         self.order[:count] = order
         self.triangles = np.zeros((leaves, 9))
         self.triangles[:count] = corners[order].reshape(count, 9)
-        low, high = np.full((leaves, 3), np.inf), np.full((leaves, 3), -np.inf)
-        low[:count], high[:count] = corners[order].min(axis=1), corners[order].max(axis=1)
-        lo, hi = box_levels(low, high)
+        lo, hi = tree.node_lo, tree.node_hi
         # per node lo, hi and its size (the sum of its extents, for the walk's split rule)
         size = hi[:, 0] - lo[:, 0] + hi[:, 1] - lo[:, 1] + hi[:, 2] - lo[:, 2]
         self.boxes = np.ascontiguousarray(np.concatenate([lo, hi, size[:, None]], axis=1))

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cadpipe._validate import as_points
-from cadpipe.collision.bounds import box_levels
+from cadpipe.core.tree import BoxTree
 from cadpipe.collision.capsules import Chain, round_cone_distance
 from cadpipe.core.kernels import native
 from cadpipe.errors import InputError
@@ -92,12 +92,12 @@ class PipeLocation:
 
 
 class SegmentTree:
-    """Boxes over a chain's units for point queries, in the chain's frame.
+    """Boxes over a chain's units for point queries, in the chain's frame: the one box
+    tree (:class:`~cadpipe.core.tree.BoxTree`) in the units' own order, a unit a leaf.
 
-    A perfect binary tree in heap order (node ``k``'s children are ``2k + 1``,
-    ``2k + 2``) whose leaves, at depth ``depth``, hold unit ``unit[leaf]`` or
-    none (-1, an empty box). ``lo``, ``hi`` (nodes, 3) bound the units' axes;
-    ``reach`` (nodes,) is the largest ball radius below each node.
+    Leaf ``L`` (at depth ``depth``) holds unit ``unit[L]`` or none (-1, an empty box);
+    ``lo``, ``hi`` (nodes, 3) bound the units' axes; ``reach`` (nodes,) is the largest
+    ball radius below each node.
 
     Parameters
     ----------
@@ -107,15 +107,12 @@ class SegmentTree:
     def __init__(self, chain: Chain):
         a, b = chain.starts, chain.ends
         count = len(a)
-        self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
-        leaves = 2 ** self.depth
-        self.unit = np.full(leaves, -1, np.int64)
+        tree = BoxTree(np.minimum(a, b), np.maximum(a, b), order="sequence", leaf_size=1)
+        self.depth = tree.depth
+        self.unit = np.full(tree.leaves, -1, np.int64)
         self.unit[:count] = np.arange(count)
-        lo, hi = np.full((leaves, 3), np.inf), np.full((leaves, 3), -np.inf)
-        reach = np.full(leaves, -np.inf)
-        lo[:count], hi[:count] = np.minimum(a, b), np.maximum(a, b)
-        reach[:count] = np.maximum(chain.start_radii, chain.end_radii)
-        self.lo, self.hi, self.reach = box_levels(lo, hi, reach)
+        self.lo, self.hi = tree.node_lo, tree.node_hi
+        self.reach = tree.maxima(np.maximum(chain.start_radii, chain.end_radii))
 
 
 class _Centreline:

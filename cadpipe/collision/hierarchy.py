@@ -37,6 +37,7 @@ import numpy as np
 
 from cadpipe.collision.capsules import inverse, unit_pair_gap
 from cadpipe.core.kernels import native
+from cadpipe.core.tree import depth_for, node_ranges
 from cadpipe.geometry.ragged import Groups
 
 #: poses per call of the compiled walk (bounds the buffer of leaf pairs left over)
@@ -57,9 +58,9 @@ class CapsuleTree:
     def __init__(self, chain):
         edges = chain.edges
         count = len(edges)
-        self.depth = int(np.ceil(np.log2(count))) if count > 1 else 0
+        self.depth = depth_for(count)
         size = 2 ** (self.depth + 1) - 1
-        first, last = _heap_runs(count, self.depth)
+        first, last = node_ranges(count, self.depth, even=True)
         full = np.flatnonzero(last > first)
         lo, hi = first[full], last[full]
         # every unit of every non-empty node, node after node (ragged rows), so per-node
@@ -125,19 +126,6 @@ class CapsuleTree:
                                       self.inv_chord_sq, self.inner, self.outer])
         self.index = np.column_stack([self.p0, self.p1, np.r_[np.full(size - len(leaves), -1),
                                                               self.unit]])
-
-
-def _heap_runs(count, depth):
-    """``(first, last)`` units of every node of a perfect tree of ``depth`` over
-    ``count`` units, in heap order: node ``2**d - 1 + j`` (the ``j``-th at depth
-    ``d``) covers units ``j * count // 2**d`` up to ``(j + 1) * count // 2**d``
-    (empty where they are equal)."""
-    first, last = [], []
-    for d in range(depth + 1):
-        j = np.arange(2 ** d)
-        first.append(j * count // 2 ** d)
-        last.append((j + 1) * count // 2 ** d)
-    return np.concatenate(first), np.concatenate(last)
 
 
 def chain_gaps(chain_a, chain_b, poses, stop_below=None):

@@ -1,7 +1,7 @@
 """Faces of a mesh that cut through each other (self-intersections).
 
-Broad phase: the box tree of the triangles (:class:`~cadpipe.geometry.boxtree.BoxTree`:
-Morton order, leaves of :data:`~cadpipe.geometry.boxtree.LEAF` triangles, heap-ordered
+Broad phase: the box tree of the triangles (:class:`~cadpipe.core.tree.BoxTree`:
+Morton order, leaves of :data:`~cadpipe.core.tree.LEAF` triangles, heap-ordered
 nodes). Each leaf is then queried against the tree in one compiled loop (C,
 ``csrc/intersect.c``), which tests the triangle pairs of overlapping leaves
 as it finds them: a million triangles take about a second, where a level-by-level
@@ -17,7 +17,7 @@ share a vertex or coplanar overlaps (those show up as non-manifold edges).
 import numpy as np
 
 from cadpipe.core.kernels import native
-from cadpipe.geometry.boxtree import BoxTree
+from cadpipe.core.tree import BoxTree
 from cadpipe.core import float32
 
 

@@ -3,7 +3,7 @@
 The winding number of a triangle set at a point is the sum of the triangles'
 signed solid angles over 4 pi (Van Oosterom and Strackee's formula for each):
 1 inside a closed outward mesh, 0 outside, fractions around holes. Two exact
-ways to it walk the same :class:`~cadpipe.geometry.boxtree.BoxTree`:
+ways to it walk the same :class:`~cadpipe.core.tree.BoxTree` (Morton order):
 
 * A closed surface (every edge walked as often each way: no boundary at all)
   has an integer winding number off the surface, the signed count of its
@@ -37,7 +37,7 @@ from functools import cached_property
 import numpy as np
 
 from cadpipe.core.kernels import native
-from cadpipe.geometry.boxtree import BoxTree
+from cadpipe.core.tree import BoxTree
 
 
 class WindingTree:
@@ -87,7 +87,8 @@ class WindingTree:
         ``edges`` (E, 2), each ``(low, high)`` vertex pair walked ``times`` (E,) more
         often from low to high than back: leaves from their triangles, each node by
         merging its children's (both sorted by edge)."""
-        return native.caps(self.faces, self.tree.leaves, len(self.vertices))
+        return native.caps(self.faces, self.tree.leaves, self.tree.leaf_size,
+                           len(self.vertices))
 
     def __call__(self, points):
         """Winding number of the triangles at each point.
@@ -118,13 +119,14 @@ class WindingTree:
             # vertex, or a crossing is within rounding of the point
             unsure = np.zeros(len(points), np.bool_)
             native.crossings(points, self.tree.node_lo, self.tree.node_hi, self.triangles,
-                             out, unsure)
+                             self.tree.leaf_size, out, unsure)
             todo = np.flatnonzero(unsure)
         if len(todo):
             # the solid angles summed down the tree, through a node's cap where its box
             # does not hold the point and the cap is the smaller
             exact = np.empty(len(todo))
             native.winding(np.ascontiguousarray(points[todo]), self.tree.node_lo,
-                           self.tree.node_hi, self.triangles, *self.caps, self.vertices, exact)
+                           self.tree.node_hi, self.triangles, *self.caps, self.vertices,
+                           self.tree.leaf_size, exact)
             out[todo] = exact
         return out

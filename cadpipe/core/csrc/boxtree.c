@@ -1,29 +1,9 @@
-/* The box tree over triangles (cadpipe.geometry.boxtree.BoxTree): its build, and the
- * node arithmetic every walk of it shares (winding.c, intersect.c).
- *
- * Boxes sorted along a Morton curve of their centres, grouped into leaves of BOX_LEAF;
- * the nodes a complete binary tree in heap order (node k's children 2k and 2k + 1, the
- * root node 1, the leaves the last ``leaves`` nodes). Node k at span s (leaves under it)
- * holds the sorted boxes [(k s - leaves) BOX_LEAF, (k s - leaves + s) BOX_LEAF), so a walk
- * carries the span instead of looking ranges up. */
+/* Building the box tree (cadpipe.core.tree.BoxTree, layout in tree.h): the items' boxes
+ * in the tree's order, padded with empty ones, and every node's box from the leaves up;
+ * and the Morton keys of a Morton order. The walks over it are winding.c's and
+ * intersect.c's. */
 #include "native.h"
-
-#define BOX_LEAF 4      /* boxes per leaf: boxtree.LEAF */
-
-/* The first sorted box under node ``node`` at span ``span`` of a tree of ``leaves``. */
-static inline int64_t node_first(int64_t node, int64_t span, int64_t leaves)
-{
-    return (node * span - leaves) * BOX_LEAF;
-}
-
-/* The end of the sorted boxes under a node from its first at span ``span``, of ``n``. */
-static inline int64_t node_stop(int64_t first, int64_t span, int64_t n)
-{
-    return cp_imin(n, first + span * BOX_LEAF);
-}
-
-/* The leaves of a tree with ``nodes`` rows of node boxes (row 0 unused). */
-static inline int64_t box_tree_leaves(npy_intp nodes) { return (int64_t)(nodes / 2); }
+#include "tree.h"
 
 /* Do boxes ``i`` of ``lo``, ``hi`` and ``j`` of ``blo``, ``bhi`` (rows of 3) overlap
  * (touching counts)? */
@@ -66,23 +46,31 @@ KERNEL(triangle_boxes)
     return Py_BuildValue("NN", lo, hi);
 }
 
-/* box_build(lo, hi (N, 3), order (N,), leaves) -> (sorted_lo, sorted_hi (leaves * BOX_LEAF,
- * 3), node_lo, node_hi (2 leaves, 3)): the boxes in Morton order padded with empty ones
- * (inf, -inf), and the node boxes, leaves first, then each level from the one below. */
-KERNEL(box_build)
+/* tree_build(lo, hi (N, 3), order (N,), leaves, leaf_size) -> (items_lo, items_hi
+ * (leaves * leaf_size, 3), node_lo, node_hi (2 leaves - 1, 3)): the boxes in the tree's
+ * order padded with empty ones (inf, -inf), and the node boxes in heap order, each leaf
+ * the union of its items', each node of its children's. */
+KERNEL(tree_build)
 {
-    CP_NARGS(4);
+    CP_NARGS(5);
     IN_F64(0, lo, 2);
     IN_F64(1, hi, 2);
     IN_I64(2, order, 1);
     IN_LONG(3, leaves);
+    IN_LONG(4, leaf_size);
     npy_intp n = order.shape[0];
-    if (leaves < 1 || n > leaves * BOX_LEAF || n != lo.shape[0] || lo.shape[0] != hi.shape[0] ||
-        (lo.shape[0] && (lo.shape[1] != 3 || hi.shape[1] != 3))) {
-        PyErr_SetString(PyExc_ValueError, "box_build: shapes differ");
+    if (leaves < 1 || leaf_size < 1 || n > leaves * leaf_size || n != lo.shape[0] ||
+        lo.shape[0] != hi.shape[0] || (lo.shape[0] && (lo.shape[1] != 3 || hi.shape[1] != 3))) {
+        PyErr_SetString(PyExc_ValueError, "tree_build: shapes differ");
         return NULL;
     }
-    npy_intp sizes[2] = {leaves * BOX_LEAF, 3}, nodes[2] = {2 * leaves, 3};
+    const int64_t *o = I64(order);
+    for (npy_intp i = 0; i < n; i++)
+        if (o[i] < 0 || o[i] >= n) {
+            PyErr_SetString(PyExc_IndexError, "tree_build: order out of range");
+            return NULL;
+        }
+    npy_intp sizes[2] = {leaves * leaf_size, 3}, nodes[2] = {2 * leaves - 1, 3};
     PyArrayObject *arrays[4] = {cp_new(2, sizes, NPY_FLOAT64), cp_new(2, sizes, NPY_FLOAT64),
                                 cp_new(2, nodes, NPY_FLOAT64), cp_new(2, nodes, NPY_FLOAT64)};
     if (!arrays[0] || !arrays[1] || !arrays[2] || !arrays[3]) {
@@ -93,24 +81,25 @@ KERNEL(box_build)
     double *slo = PyArray_DATA(arrays[0]), *shi = PyArray_DATA(arrays[1]);
     double *nlo = PyArray_DATA(arrays[2]), *nhi = PyArray_DATA(arrays[3]);
     const double *l = F64(lo), *h = F64(hi);
-    const int64_t *o = I64(order);
     Py_BEGIN_ALLOW_THREADS
     for (npy_intp k = 0; k < sizes[0] * 3; k++)
         slo[k] = INFINITY, shi[k] = -INFINITY;
     for (npy_intp k = 0; k < nodes[0] * 3; k++)
         nlo[k] = INFINITY, nhi[k] = -INFINITY;
     for (npy_intp i = 0; i < n; i++) {
-        int64_t leaf = leaves + i / BOX_LEAF;
+        int64_t leaf = leaves - 1 + i / leaf_size;
         for (int axis = 0; axis < 3; axis++) {
             slo[3 * i + axis] = l[3 * o[i] + axis], shi[3 * i + axis] = h[3 * o[i] + axis];
             nlo[3 * leaf + axis] = cp_min(nlo[3 * leaf + axis], slo[3 * i + axis]);
             nhi[3 * leaf + axis] = cp_max(nhi[3 * leaf + axis], shi[3 * i + axis]);
         }
     }
-    for (int64_t node = leaves - 1; node > 0; node--)
+    for (int64_t node = leaves - 2; node >= 0; node--)
         for (int axis = 0; axis < 3; axis++) {
-            nlo[3 * node + axis] = cp_min(nlo[6 * node + axis], nlo[6 * node + 3 + axis]);
-            nhi[3 * node + axis] = cp_max(nhi[6 * node + axis], nhi[6 * node + 3 + axis]);
+            nlo[3 * node + axis] = cp_min(nlo[3 * (2 * node + 1) + axis],
+                                          nlo[3 * (2 * node + 2) + axis]);
+            nhi[3 * node + axis] = cp_max(nhi[3 * (2 * node + 1) + axis],
+                                          nhi[3 * (2 * node + 2) + axis]);
         }
     Py_END_ALLOW_THREADS
     return Py_BuildValue("NNNN", arrays[0], arrays[1], arrays[2], arrays[3]);
@@ -197,6 +186,7 @@ KERNEL(morton)
 
 static PyMethodDef boxtree_methods[] = {
     ENTRY(triangle_boxes, "(tri (F, 3, 3)) -> (lo, hi) (F, 3) boxes of the triangles"),
-    ENTRY(box_build, "(lo, hi, order, leaves) -> (sorted_lo, sorted_hi, node_lo, node_hi)"),
+    ENTRY(tree_build, "(lo, hi, order, leaves, leaf_size) -> (items_lo, items_hi, node_lo,"
+                      " node_hi): the box tree's boxes"),
     ENTRY(morton, "(lo, hi (N, 3)) -> (N,) uint64 Morton keys of the box centres"),
     END_ENTRIES};

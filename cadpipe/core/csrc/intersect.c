@@ -1,8 +1,9 @@
-/* Overlapping box pairs and crossing triangle pairs (cadpipe.solids.intersect): the box
- * tree (boxtree.c) walked against itself, node pairs a <= b of one level at a time, so
- * each pair is met once; with the narrow phase, the triangle pairs of overlapping leaf
- * boxes tested as they are found. */
+/* Overlapping box pairs and crossing triangle pairs (cadpipe.geometry.intersect): the box
+ * tree (tree.h's layout, built by boxtree.c) walked against itself, node pairs a <= b of
+ * one level at a time, so each pair is met once; with the narrow phase, the triangle
+ * pairs of overlapping leaf boxes tested as they are found. */
 #include "native.h"
+#include "tree.h"
 
 /* The signed distance of ``point`` from the plane through ``origin`` with ``normal``. */
 static inline double plane_at(const double *point, const double *origin, const double *normal)
@@ -94,26 +95,27 @@ static int pair_add(PairList *l, int64_t p, int64_t q)
     return 1;
 }
 
-/* traverse(node_lo, node_hi (2 leaves, 3), lo, hi (leaves * 4, 3), order (N,), n, narrow,
- * tri (F, 3, 3), faces (F, 3), normals (F, 3), tol) -> (K, 2) int64: the overlapping box
+/* traverse(node_lo, node_hi (2 leaves - 1, 3), lo, hi (leaves * leaf_size, 3), order (N,),
+ * n, leaf_size, narrow, tri (F, 3, 3), faces (F, 3), normals (F, 3), tol) -> (K, 2) int64: the overlapping box
  * pairs (original indices), or with ``narrow`` the crossing triangle pairs among them as
  * (min, max). */
 KERNEL(traverse)
 {
-    CP_NARGS(11);
+    CP_NARGS(12);
     IN_F64(0, node_lo, 2);
     IN_F64(1, node_hi, 2);
     IN_F64(2, lo, 2);
     IN_F64(3, hi, 2);
     IN_I64(4, order, 1);
     IN_LONG(5, n);
-    IN_FLAG(6, narrow);
-    IN_F64(7, tri, 3);
-    IN_I64(8, faces, 2);
-    IN_F64(9, normals, 2);
-    IN_DOUBLE(10, tol);
-    int64_t leaves = box_tree_leaves(node_lo.shape[0]);
-    if (leaves < 1 || n > lo.shape[0] || n > order.shape[0] || hi.shape[0] != lo.shape[0]) {
+    IN_LONG(6, leaf_size);
+    IN_FLAG(7, narrow);
+    IN_F64(8, tri, 3);
+    IN_I64(9, faces, 2);
+    IN_F64(10, normals, 2);
+    IN_DOUBLE(11, tol);
+    int64_t leaves = tree_leaf_count(node_lo.shape[0]);
+    if (leaves < 1 || leaf_size < 1 || n > lo.shape[0] || n > order.shape[0] || hi.shape[0] != lo.shape[0]) {
         PyErr_SetString(PyExc_ValueError, "traverse: shapes differ");
         return NULL;
     }
@@ -126,7 +128,7 @@ KERNEL(traverse)
     int ok = 1;
     Py_BEGIN_ALLOW_THREADS
     int64_t stack[256][3];
-    stack[0][0] = 1, stack[0][1] = 1, stack[0][2] = leaves;  /* node a, node b, span */
+    stack[0][0] = 0, stack[0][1] = 0, stack[0][2] = leaves;  /* node a, node b, span */
     int top = 1;
     while (top && ok) {
         top--;
@@ -134,16 +136,19 @@ KERNEL(traverse)
         if (a != b && !boxes_overlap(nlo, nhi, a, nlo, nhi, b))
             continue;
         if (span > 1) {
-            for (int64_t ca = 2 * a; ca < 2 * a + 2; ca++)
-                for (int64_t cb = cp_imax(ca, 2 * b); cb < 2 * b + 2; cb++) {
+            for (int64_t ca = 2 * a + 1; ca <= 2 * a + 2; ca++)
+                for (int64_t cb = cp_imax(ca, 2 * b + 1); cb <= 2 * b + 2; cb++) {
                     stack[top][0] = ca, stack[top][1] = cb, stack[top][2] = span / 2;
                     top++;
                 }
             continue;
         }
-        int64_t first = node_first(a, 1, leaves), second = node_first(b, 1, leaves);
-        for (int64_t i = first; i < node_stop(first, 1, n) && ok; i++)
-            for (int64_t j = a == b ? i + 1 : second; j < node_stop(second, 1, n); j++) {
+        int64_t first = tree_first_item(a, 1, leaves, leaf_size);
+        int64_t second = tree_first_item(b, 1, leaves, leaf_size);
+        int64_t first_stop = cp_imin(n, first + leaf_size);
+        int64_t second_stop = cp_imin(n, second + leaf_size);
+        for (int64_t i = first; i < first_stop && ok; i++)
+            for (int64_t j = a == b ? i + 1 : second; j < second_stop; j++) {
                 if (!boxes_overlap(blo, bhi, i, blo, bhi, j))
                     continue;
                 int64_t p = o[i], q = o[j];
@@ -173,6 +178,7 @@ KERNEL(traverse)
 }
 
 static PyMethodDef intersect_methods[] = {
-    ENTRY(traverse, "(node_lo, node_hi, lo, hi, order, n, narrow, tri, faces, normals, tol) "
+    ENTRY(traverse, "(node_lo, node_hi, lo, hi, order, n, leaf_size, narrow, tri, faces, normals,"
+                    " tol) "
                     "-> (K, 2) overlapping box pairs, or crossing triangle pairs"),
     END_ENTRIES};

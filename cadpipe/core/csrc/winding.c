@@ -2,8 +2,12 @@
  * ways): the signed count of a ray's crossings for a closed surface, the solid angles
  * summed down the tree (node caps for nodes whose box does not hold the point) for any
  * triangle set; and the facts they need, whether the surface is closed and every node's
- * boundary. Triangles and faces come in tree order (boxtree.c's node ranges). */
+ * boundary. Triangles and faces come in the tree's order (tree.h's layout). */
 #include "native.h"
+#include "tree.h"
+
+/* most triangles a leaf of a winding tree holds (cadpipe.core.tree.LEAF is 4) */
+#define MAX_LEAF 16
 
 /* Sort ``keys`` (n) ascending as unsigned numbers, through ``scratch`` (n): least
  * significant digit first, 11 bits a pass, only over the bits that differ. */
@@ -114,23 +118,26 @@ static int grown(int64_t **key, int64_t **times, npy_intp size)
     return 1;
 }
 
-/* caps(faces (F, 3) in tree order, leaves, vertex_count) -> (first, count (2 leaves,),
+/* caps(faces (F, 3) in tree order, leaves, leaf_size, vertex_count) -> (first, count
+ * (2 leaves - 1,),
  * edges (E, 2), times (E,)): node k's boundary edges are rows first[k]:first[k] + count[k]
  * of edges, each (low, high) vertex pair walked ``times`` more often from low to high
  * than back. Leaves from their triangles, each node by merging its children's (both
  * sorted by edge). */
 KERNEL(caps)
 {
-    CP_NARGS(3);
+    CP_NARGS(4);
     IN_I64(0, faces, 2);
     IN_LONG(1, leaves);
-    IN_LONG(2, vertex_count);
+    IN_LONG(2, leaf_size);
+    IN_LONG(3, vertex_count);
     npy_intp nf = faces.shape[0];
-    if (leaves < 1 || nf > leaves * BOX_LEAF || (nf && vertex_count < 1)) {
+    if (leaves < 1 || leaf_size < 1 || leaf_size > MAX_LEAF || nf > leaves * leaf_size ||
+        (nf && vertex_count < 1)) {
         PyErr_SetString(PyExc_ValueError, "caps: faces, leaves and vertices differ");
         return NULL;
     }
-    npy_intp nodes = 2 * leaves, size = 16 + 3 * nf;
+    npy_intp nodes = 2 * leaves - 1, size = 16 + 3 * nf;
     npy_intp dims[1] = {nodes};
     PyArrayObject *first_arr = cp_new(1, dims, NPY_INT64), *count_arr = cp_new(1, dims, NPY_INT64);
     int64_t *key = PyMem_RawMalloc(size * sizeof(int64_t));
@@ -143,10 +150,11 @@ KERNEL(caps)
         memset(first, 0, nodes * sizeof(int64_t));
         memset(count, 0, nodes * sizeof(int64_t));
         Py_BEGIN_ALLOW_THREADS
-        int64_t leaf_key[3 * BOX_LEAF], leaf_times[3 * BOX_LEAF];
+        int64_t leaf_key[3 * MAX_LEAF], leaf_times[3 * MAX_LEAF];
         for (int64_t leaf = 0; leaf < leaves; leaf++) {
+            int64_t node = leaves - 1 + leaf;
             int m = 0;
-            for (int64_t f = leaf * BOX_LEAF; f < cp_imin(nf, (leaf + 1) * BOX_LEAF); f++)
+            for (int64_t f = leaf * leaf_size; f < cp_imin(nf, (leaf + 1) * leaf_size); f++)
                 for (int c = 0; c < 3; c++) {
                     int64_t a = fc[3 * f + c], b = fc[3 * f + (c + 1) % 3];
                     if (a != b) {
@@ -156,7 +164,7 @@ KERNEL(caps)
                         m++;
                     }
                 }
-            for (int r = 1; r < m; r++) {        /* insertion sort: 12 edges at most */
+            for (int r = 1; r < m; r++) {        /* insertion sort: a leaf's few edges */
                 int64_t k = leaf_key[r], w = leaf_times[r];
                 int q = r;
                 while (q && leaf_key[q - 1] > k) {
@@ -165,9 +173,9 @@ KERNEL(caps)
                 }
                 leaf_key[q] = k, leaf_times[q] = w;
             }
-            first[leaves + leaf] = used;
+            first[node] = used;
             for (int r = 0; r < m; r++) {
-                if (used > first[leaves + leaf] && key[used - 1] == leaf_key[r]) {
+                if (used > first[node] && key[used - 1] == leaf_key[r]) {
                     times[used - 1] += leaf_times[r];
                     if (times[used - 1] == 0)
                         used--;
@@ -176,10 +184,11 @@ KERNEL(caps)
                     used++;
                 }
             }
-            count[leaves + leaf] = used - first[leaves + leaf];
+            count[node] = used - first[node];
         }
-        for (int64_t node = leaves - 1; node > 0 && ok; node--) {
-            npy_intp need = used + count[2 * node] + count[2 * node + 1];
+        for (int64_t node = leaves - 2; node >= 0 && ok; node--) {
+            int64_t c0 = 2 * node + 1, c1 = 2 * node + 2;
+            npy_intp need = used + count[c0] + count[c1];
             if (need > size) {
                 size = 2 * need;
                 ok = grown(&key, &times, size);
@@ -187,8 +196,8 @@ KERNEL(caps)
                     break;
             }
             first[node] = used;
-            int64_t i = first[2 * node], i_end = first[2 * node] + count[2 * node];
-            int64_t j = first[2 * node + 1], j_end = first[2 * node + 1] + count[2 * node + 1];
+            int64_t i = first[c0], i_end = first[c0] + count[c0];
+            int64_t j = first[c1], j_end = first[c1] + count[c1];
             while (i < i_end || j < j_end) {
                 if (j == j_end || (i < i_end && key[i] < key[j])) {
                     key[used] = key[i], times[used] = times[i];
@@ -258,7 +267,7 @@ static inline double triangle_half_angle(const double *p, const double *t)
 typedef struct {
     const double *node_lo, *node_hi, *tri, *vertices;
     const int64_t *cap_first, *cap_count, *cap_edges, *cap_times;
-    int64_t leaves, n;
+    int64_t leaves, leaf_size, n;
 } WindingTree;
 
 /* The winding number at ``p``: the tree walked from the root, a node whose box does not
@@ -268,12 +277,13 @@ static double winding_at(const WindingTree *w, const double *p)
 {
     int64_t stack[128][2];
     double total = 0.0;
-    stack[0][0] = 1, stack[0][1] = w->leaves;              /* node, leaves under it */
+    stack[0][0] = 0, stack[0][1] = w->leaves;              /* node, leaves under it */
     int top = 1;
     while (top) {
         top--;
         int64_t node = stack[top][0], span = stack[top][1];
-        int64_t start = node_first(node, span, w->leaves), stop = node_stop(start, span, w->n);
+        int64_t start = tree_first_item(node, span, w->leaves, w->leaf_size);
+        int64_t stop = cp_imin(w->n, start + span * w->leaf_size);
         if (stop <= start)
             continue;
         const double *lo = w->node_lo + 3 * node, *hi = w->node_hi + 3 * node;
@@ -294,7 +304,7 @@ static double winding_at(const WindingTree *w, const double *p)
             for (int64_t t = start; t < stop; t++)
                 total += triangle_half_angle(p, w->tri + 9 * t);
         } else {
-            for (int64_t child = 2 * node; child < 2 * node + 2; child++) {
+            for (int64_t child = 2 * node + 1; child <= 2 * node + 2; child++) {
                 stack[top][0] = child, stack[top][1] = span / 2;
                 top++;
             }
@@ -304,10 +314,10 @@ static double winding_at(const WindingTree *w, const double *p)
 }
 
 /* winding(points (P, 3), node_lo, node_hi, tri (F, 3, 3), cap_first, cap_count, cap_edges,
- * cap_times, vertices (V, 3), out (P,)) */
+ * cap_times, vertices (V, 3), leaf_size, out (P,)) */
 KERNEL(winding)
 {
-    CP_NARGS(10);
+    CP_NARGS(11);
     IN_F64(0, points, 2);
     IN_F64(1, node_lo, 2);
     IN_F64(2, node_hi, 2);
@@ -317,15 +327,17 @@ KERNEL(winding)
     IN_I64(6, cap_edges, 2);
     IN_I64(7, cap_times, 1);
     IN_F64(8, vertices, 2);
-    OUT_F64(9, out, 1);
-    int64_t leaves = box_tree_leaves(node_lo.shape[0]);
+    IN_LONG(9, leaf_size);
+    OUT_F64(10, out, 1);
+    int64_t leaves = tree_leaf_count(node_lo.shape[0]);
     if (out.shape[0] != points.shape[0] || cap_first.shape[0] != node_lo.shape[0] ||
         cap_count.shape[0] != node_lo.shape[0]) {
         PyErr_SetString(PyExc_ValueError, "winding: shapes differ");
         return NULL;
     }
     WindingTree w = {F64(node_lo), F64(node_hi), F64(tri), F64(vertices), I64(cap_first),
-                     I64(cap_count), I64(cap_edges), I64(cap_times), leaves, tri.shape[0]};
+                     I64(cap_count), I64(cap_edges), I64(cap_times), leaves, leaf_size,
+                     tri.shape[0]};
     Py_BEGIN_ALLOW_THREADS
     for (npy_intp i = 0; i < points.shape[0]; i++)
         F64(out)[i] = winding_at(&w, F64(points) + 3 * i);
@@ -339,7 +351,8 @@ KERNEL(winding)
  * edges. An edge's side is the 2D cross product of its ends seen from the ray, computed
  * the same (negated) for both faces of an edge, so a ray through the edge is counted
  * once; within ``grain`` times the edge's size of it the call is left unsure. */
-static inline int ray_crossing(const double *c, const double *p, int k, double sign, double grain)
+static inline int ray_crossing(const double *c, const double *p, int k, double sign,
+                               double grain)
 {
     int u = (k + 1) % 3, v = (k + 2) % 3;
     double au = c[u] - p[u], av = c[v] - p[v];
@@ -370,25 +383,25 @@ static inline int ray_crossing(const double *c, const double *p, int k, double s
  * towards the nearest side of the root box; 0 outside the box. ``*unsure`` is set (and
  * the count left) where a crossing is too close to call; it is read first, as set. */
 static double crossings_at(const double *node_lo, const double *node_hi, const double *tri,
-                           int64_t leaves, int64_t n, double grain, const double *p,
-                           npy_bool *unsure)
+                           int64_t leaves, int64_t leaf_size, int64_t n, double grain,
+                           const double *p, npy_bool *unsure)
 {
     int k = 0;
     double sign = 1.0, room = INFINITY;
     for (int axis = 0; axis < 3; axis++) {
-        if (p[axis] < node_lo[3 + axis] || p[axis] > node_hi[3 + axis])
+        if (p[axis] < node_lo[axis] || p[axis] > node_hi[axis])
             room = -INFINITY;                           /* outside the box: 0 */
-        if (node_hi[3 + axis] - p[axis] < room)
-            k = axis, sign = 1.0, room = node_hi[3 + axis] - p[axis];
-        if (p[axis] - node_lo[3 + axis] < room)
-            k = axis, sign = -1.0, room = p[axis] - node_lo[3 + axis];
+        if (node_hi[axis] - p[axis] < room)
+            k = axis, sign = 1.0, room = node_hi[axis] - p[axis];
+        if (p[axis] - node_lo[axis] < room)
+            k = axis, sign = -1.0, room = p[axis] - node_lo[axis];
     }
     if (room < 0)
         return 0.0;
     int u = (k + 1) % 3, v = (k + 2) % 3;
     double count = 0.0;
     int64_t stack[128][2];
-    stack[0][0] = 1, stack[0][1] = leaves;
+    stack[0][0] = 0, stack[0][1] = leaves;
     int top = 1;
     while (top && !*unsure) {
         top--;
@@ -398,14 +411,14 @@ static double crossings_at(const double *node_lo, const double *node_hi, const d
               sign * (sign > 0 ? hi[k] : lo[k]) >= sign * p[k] - 1e3 * grain))
             continue;
         if (span > 1) {
-            for (int64_t child = 2 * node; child < 2 * node + 2; child++) {
+            for (int64_t child = 2 * node + 1; child <= 2 * node + 2; child++) {
                 stack[top][0] = child, stack[top][1] = span / 2;
                 top++;
             }
             continue;
         }
-        int64_t start = node_first(node, 1, leaves);
-        for (int64_t t = start; t < node_stop(start, 1, n); t++) {
+        int64_t start = tree_first_item(node, 1, leaves, leaf_size);
+        for (int64_t t = start; t < cp_imin(n, start + leaf_size); t++) {
             int crossed = ray_crossing(tri + 9 * t, p, k, sign, grain);
             if (crossed == 2) {
                 *unsure = 1;
@@ -417,20 +430,22 @@ static double crossings_at(const double *node_lo, const double *node_hi, const d
     return count;
 }
 
-/* crossings(points (P, 3), node_lo, node_hi, tri (F, 3, 3), out (P,), unsure (P,) bool):
+/* crossings(points (P, 3), node_lo, node_hi, tri (F, 3, 3), leaf_size, out (P,), unsure
+ * (P,) bool):
  * a closed surface's winding number at each point by a ray; where the ray passes within
  * rounding of an edge or vertex, or a crossing is within rounding of the point, unsure
  * is set instead (the answer is then left to the solid angles). */
 KERNEL(crossings)
 {
-    CP_NARGS(6);
+    CP_NARGS(7);
     IN_F64(0, points, 2);
     IN_F64(1, node_lo, 2);
     IN_F64(2, node_hi, 2);
     IN_F64(3, tri, 3);
-    OUT_F64(4, out, 1);
-    OUT_BOOL(5, unsure, 1);
-    int64_t leaves = box_tree_leaves(node_lo.shape[0]);
+    IN_LONG(4, leaf_size);
+    OUT_F64(5, out, 1);
+    OUT_BOOL(6, unsure, 1);
+    int64_t leaves = tree_leaf_count(node_lo.shape[0]);
     if (out.shape[0] != points.shape[0] || unsure.shape[0] != points.shape[0] || leaves < 1) {
         PyErr_SetString(PyExc_ValueError, "crossings: shapes differ");
         return NULL;
@@ -438,11 +453,11 @@ KERNEL(crossings)
     const double *lo = F64(node_lo), *hi = F64(node_hi);
     double scale = 0.0;
     for (int axis = 0; axis < 3; axis++)
-        scale = cp_max(cp_max(scale, fabs(lo[3 + axis])), fabs(hi[3 + axis]));
+        scale = cp_max(cp_max(scale, fabs(lo[axis])), fabs(hi[axis]));
     double grain = 1e-12 * scale;          /* ~1e4 float64 steps at the mesh's coordinates */
     Py_BEGIN_ALLOW_THREADS
     for (npy_intp i = 0; i < points.shape[0]; i++)
-        F64(out)[i] = crossings_at(lo, hi, F64(tri), leaves, tri.shape[0], grain,
+        F64(out)[i] = crossings_at(lo, hi, F64(tri), leaves, leaf_size, tri.shape[0], grain,
                                    F64(points) + 3 * i, BOOL(unsure) + i);
     Py_END_ALLOW_THREADS
     Py_RETURN_NONE;
@@ -450,10 +465,12 @@ KERNEL(crossings)
 
 static PyMethodDef winding_methods[] = {
     ENTRY(closed, "(faces (F, 3), vertex_count) -> is every edge walked as often each way"),
-    ENTRY(caps, "(faces (F, 3) in tree order, leaves, vertex_count) -> (first, count, "
+    ENTRY(caps, "(faces (F, 3) in tree order, leaves, leaf_size, vertex_count) -> (first, "
+                "count, "
                 "edges, times): every node's boundary"),
     ENTRY(winding, "(points, node_lo, node_hi, tri, cap_first, cap_count, cap_edges, "
-                   "cap_times, vertices, out): winding numbers by solid angles"),
-    ENTRY(crossings, "(points, node_lo, node_hi, tri, out, unsure): a closed surface's "
+                   "cap_times, vertices, leaf_size, out): winding numbers by solid angles"),
+    ENTRY(crossings, "(points, node_lo, node_hi, tri, leaf_size, out, unsure): a closed "
+                     "surface's "
                      "winding numbers by a ray"),
     END_ENTRIES};
