@@ -22,6 +22,7 @@ from functools import cached_property
 import numpy as np
 
 from cadpipe.core.kernels import native
+from cadpipe.core.distance import closest_params
 from cadpipe.core.vec import dot
 
 
@@ -80,39 +81,6 @@ def _edge_minimum(c, w, k):
     return np.clip(x, 0.0, 1.0)
 
 
-def inverse(x):
-    """``1 / x``, and 0 where ``x`` is 0 (a zero-length segment's squared length) or
-    too small to invert."""
-    usable = x > np.finfo(np.float64).tiny
-    return np.where(usable, 1.0 / np.where(usable, x, 1.0), 0.0)
-
-
-def segment_params(uu, vv, uv, ur, vr, inv_uu, inv_vv):
-    """Parameters ``(s, t)`` of the closest points of segments ``p0 + s u`` and
-    ``q0 + t v``, from the dot products of ``u``, ``v`` and ``r = p0 - q0`` and the
-    :func:`inverse` squared lengths (callers holding coordinates in any layout
-    share it).
-
-    Ericson's clamping ("Real-Time Collision Detection", 5.1.9), except that
-    ``s`` is always recomputed from the clamped ``t``: that pair is never
-    farther apart than his, so it is a closest pair too, and zero-length
-    segments (inverse 0) need no branch of their own.
-    """
-    square = uu * vv
-    den = square - uv * uv
-    s = np.clip((uv * vr - ur * vv) / np.maximum(den, 1e-300), 0.0, 1.0)
-    s = np.where(den > 1e-14 * square, s, 0.0)
-    t = np.clip((uv * s + vr) * inv_vv, 0.0, 1.0)
-    return np.clip((uv * t - ur) * inv_uu, 0.0, 1.0), t
-
-
-def _segment_closest(p0, u, q0, v):
-    """Parameters of the closest points of segments ``p0 + s u`` and ``q0 + t v``."""
-    r = p0 - q0
-    uu, vv = dot(u, u), dot(v, v)
-    return segment_params(uu, vv, dot(u, v), dot(u, r), dot(v, r), inverse(uu), inverse(vv))
-
-
 def _interior_stationary(p0, u, q0, v, dr, drho, sign):
     """A stationary point of the pair gap inside the square, or NaN where none.
 
@@ -157,7 +125,7 @@ def unit_pair_gap(a0, a1, ra0, ra1, b0, b1, rb0, rb1):
     u, v = a1 - a0, b1 - b0
     dr, drho = ra1 - ra0, rb1 - rb0
     if not (np.any(dr) or np.any(drho)):     # capsules: the axes' closest points decide
-        s, t = _segment_closest(a0, u, b0, v)
+        s, t = closest_params(a0, u, b0, v)
         diff = a0 + s[..., None] * u - b0 - t[..., None] * v
         return np.linalg.norm(diff, axis=-1) - ra0 - rb0, s, t
 
@@ -174,7 +142,7 @@ def unit_pair_gap(a0, a1, ra0, ra1, b0, b1, rb0, rb1):
     for t_fixed in (zero, one):
         s = _edge_minimum(a0 - b0 - t_fixed[..., None] * v, u, dr)
         candidates.append((s, t_fixed))
-    candidates.append(_segment_closest(a0, u, b0, v))
+    candidates.append(closest_params(a0, u, b0, v))
     for sign in (1.0, -1.0):
         s, t = _interior_stationary(a0, u, b0, v, dr, drho, sign)
         found = ~np.isnan(s)

@@ -35,7 +35,8 @@ pairs go to the exact round-cone gap of
 
 import numpy as np
 
-from cadpipe.collision.capsules import inverse, unit_pair_gap
+from cadpipe.collision.capsules import unit_pair_gap
+from cadpipe.core.distance import inverse
 from cadpipe.core.kernels import native
 from cadpipe.core.tree import depth_for, node_ranges
 from cadpipe.geometry.ragged import Groups
@@ -169,7 +170,7 @@ def _walk(chain_a, chain_b, poses, stop_below, gap, units, params):
     The walk (``native.chain_walk``) takes both trees for each pose depth first,
     splitting the larger node of each pair (by chord and outer radius). Per node
     pair: the chords' closest points (Ericson's clamping, as
-    :func:`~cadpipe.collision.capsules.segment_params`), ``dist``; ``dist - inner -
+    :func:`~cadpipe.core.distance.segment_params`), ``dist``; ``dist - inner -
     inner`` bounds the gap from above, ``dist - outer - outer`` from below. A
     yes/no query settles a pose once the upper bound is at most ``stop_below``;
     otherwise pairs whose lower bound exceeds the best upper bound are dropped.

@@ -116,13 +116,13 @@ static inline V3 closest_on_triangle(V3 p, const double *t)
 }
 
 /* ``1 / x``, and 0 where ``x`` is too small to invert (a zero-length segment's squared
- * length): capsules.inverse. */
+ * length): core.distance.inverse. */
 static inline double inverse(double x) { return x > DBL_MIN ? 1.0 / x : 0.0; }
 
 /* Parameters ``(s, t)`` of the closest points of ``p + s u`` and ``q + t v`` from the
  * dot products of ``u``, ``v`` and ``r = p - q`` and the inverse squared lengths:
  * Ericson's clamping (5.1.9), ``s`` always recomputed from the clamped ``t``
- * (capsules.segment_params, the numpy form). */
+ * (core.distance.segment_params, the numpy form). */
 static inline void segment_params(double uu, double vv, double uv, double ur, double vr,
                                   double inv_uu, double inv_vv, double *s_out, double *t_out)
 {
