@@ -42,7 +42,9 @@ from pathlib import Path as FilePath
 import numpy as np
 
 import cadpipe
-from cadpipe.solids.booleans import as_solid, combine, exportable, reserve_ids, united
+from cadpipe.geometry.mesh import reserve_ids
+from cadpipe.geometry.swept import float32_solid
+from cadpipe.solids.booleans import as_solid, combine, united
 
 from _common import settled
 
@@ -61,7 +63,7 @@ def round_trip(pipe):
     """What it did before: validate in manifold3d, union, simplify, back to a Mesh."""
     (original,) = reserve_ids(1)
     solid = combine([as_solid(pipe.mesh(), "pipe", original)])
-    return exportable(solid, part_of_id={original: "pipe"})
+    return float32_solid(solid, part_of_id={original: "pipe"})
 
 
 def long_pipes(count, seed=0):

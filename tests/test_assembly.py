@@ -238,7 +238,7 @@ def test_solids_touching_along_an_edge_stay_manifold_in_every_file(tmp_path, suf
 
 
 def test_pinched_copies_move_apart_by_little_into_their_own_fans():
-    from cadpipe.solids.booleans import separated_pinches
+    from cadpipe.geometry.swept import separated_pinches
 
     asm = Assembly().add("a", primitives.box(1.0)).add(
         "b", primitives.box(1.0), transform=placement(translate=(1, 1, 1)))   # a corner

@@ -33,7 +33,7 @@ from cadpipe.geometry.pieces import runs, unit_pieces, unit_points
 from cadpipe.geometry.rings import ring_basis
 from cadpipe.geometry.surfaces import (add_pipe_surfaces, cap_axes, cap_reach, round_corner_rows,
                                        tubes_of)
-from cadpipe.geometry.swept import hull_solid, welded_solid
+from cadpipe.geometry.swept import hull_solid, float32_solid
 
 CAP_STYLES = ("flat", "round")
 CORNER_STYLES = ("miter", "round")
@@ -656,17 +656,17 @@ class Pipe:
     def _swept_mesh(self, folds):
         """The tube with each stretch that folds (and each envelope ball joint)
         replaced by the union of its convex units, as one welded mesh (see
-        :meth:`_swept_solid` and :func:`welded_solid`); where it folds,
+        :meth:`_swept_solid` and :func:`float32_solid`); where it folds,
         ``attributes["merged"]`` names the merged stretches."""
         solid, stretches = self._swept_solid(folds)
         if not folds:
-            return welded_solid(solid, attributes=self.attributes)
+            return float32_solid(solid, attributes=self.attributes)
         arc = self.path.arc_length
         spans = [(float(arc[a]), float(arc[(b + 1) % len(arc)] if b + 1 < len(arc)
                                      else self.path.length)) for a, b in stretches]
         names = "; ".join(f"path points {a}..{(b + 1) % len(arc)} (arc length {s:.6g} to "
                           f"{e:.6g})" for (a, b), (s, e) in zip(stretches, spans))
-        return welded_solid(solid, attributes={
+        return float32_solid(solid, attributes={
             **self.attributes, "merged": names,
             "merged_arc_lengths": tuple(x for span in spans for x in span),
             "folds": folds.messages[0]})

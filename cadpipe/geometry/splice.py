@@ -30,7 +30,7 @@ from cadpipe.geometry.pipe import Pipe
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.rings import Tubes
 from cadpipe.geometry.surfaces import add_pipe_surfaces, tubes_of
-from cadpipe.geometry.swept import hull_solid, welded_solid
+from cadpipe.geometry.swept import hull_solid, float32_solid
 
 TRANSITIONS = ("lcm", "merge")
 
@@ -565,8 +565,8 @@ def _ball_joint(tubes, b, a):
 def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pieces=None):
     """The union through manifold3d of the closed pieces of a surface (its faces by part)
     and of the convex hulls of ``hulls`` (point sets, parts ``hull_parts``), faces
-    still labelled by the piece they came from, welded at float32 precision as a
-    swept pipe is (:func:`~cadpipe.geometry.swept.welded_solid`). ``pieces`` ({part: Mesh}) replaces
+    still labelled by the piece they came from, made float32-safe as a swept pipe is
+    (:func:`~cadpipe.geometry.swept.float32_solid`). ``pieces`` ({part: Mesh}) replaces
     those parts' faces by a closed mesh of their own (a pipe's swept solid)."""
     import manifold3d
 
@@ -583,4 +583,4 @@ def united(vertices, faces, face_part, names, hulls, hull_parts, attributes, pie
                       .to_manifold(names[k], ids[k]))
     solids += [hull_solid(points, names[k], ids[k]) for points, k in zip(hulls, hull_parts)]
     solid = manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
-    return welded_solid(solid, dict(zip(ids, names)), attributes=attributes)
+    return float32_solid(solid, dict(zip(ids, names)), attributes=attributes)

@@ -34,10 +34,13 @@ from numpy.typing import ArrayLike
 from cadpipe import limits
 from cadpipe._validate import as_choice
 from cadpipe.solids.booleans import (as_solid, bounding_boxes, clusters, combine,
-                                     combine_cluster, exportable, snap)
+                                     combine_cluster, snap)
 from cadpipe.errors import CadpipeError, GeometryError, InputError
+from cadpipe.geometry.intersect import self_intersections
 from cadpipe.geometry.mesh import Mesh, reserve_ids
-from cadpipe.core import formats
+from cadpipe.geometry.swept import float32_solid
+from cadpipe.solids.validity import problems_of
+from cadpipe.core import float32, formats
 from cadpipe.core.color import parse_color
 from cadpipe.core.units import UNITS, meters_per_unit
 from cadpipe.solids.scene import LAYOUTS, Scene, ScenePart
@@ -178,6 +181,40 @@ def _is_plain(obj, mesh):
     return mesh.is_oriented and mesh.volume > 0 and mesh.n_bodies == 1
 
 
+def _finest(obj):
+    """The finest feature a part object is made of, in its own units, or None where it
+    has none of its own: a pipe's ring edge, a hollow part's wall too."""
+    pipes = getattr(obj, "pipes", None)
+    if pipes is not None:                              # a junction or a hollow chain
+        found = [f for f in map(_finest, pipes) if f is not None]
+        wall = getattr(obj, "wall", None)
+        return min(found + ([wall] if wall else [])) if found else None
+    inner = getattr(obj, "pipe", None)
+    if inner is not None:                              # a hollow pipe
+        return min(_finest(inner), obj.wall)
+    if hasattr(obj, "ring_radii") and hasattr(obj, "sides"):
+        return 2 * float(obj.ring_radii.min()) * np.sin(np.pi / obj.sides)
+    return None
+
+
+def _refuse_invalid(solid, name):
+    """:class:`GeometryError` when the union ``solid`` of assembly ``name`` fails the test
+    :func:`~cadpipe.solids.validity.check_mesh` holds solids to, naming the parts whose
+    faces are at fault: no invalid solid is ever returned or written."""
+    crossing = self_intersections(solid)
+    problems = problems_of(solid, crossing=len(crossing))
+    if not problems:
+        return
+    parts = ()
+    if len(crossing) and solid.face_part is not None:
+        parts = tuple(dict.fromkeys(solid.part_names[k] for k in
+                                    solid.face_part[crossing.ravel()].tolist()))
+    where = f" where {' and '.join(map(repr, parts[:3]))} meet" if parts else ""
+    raise GeometryError(f"assembly {name!r}: the union is no valid solid{where} "
+                        f"({problems[0]}); move those parts apart or make them overlap more, "
+                        "or report the assembly", part=parts[0] if parts else None)
+
+
 def _batch_progress(progress, stage, before, size, total, done, calls):
     """A group's batches as solids united so far of ``total``; then the joins of the
     batches, level by level, as their own stage (joins done of all)."""
@@ -296,8 +333,35 @@ class Assembly:
             placed_parts.append(tuple(placed))
         if progress is not None:
             progress("meshing done", count, count)
+        self._refuse_too_fine(placed_parts)
         self._solids, self._names = placed_parts, names
         self._operands = self._collect()
+
+    def _refuse_too_fine(self, placed_parts):
+        """:class:`GeometryError` at the first part whose finest feature is below what
+        float32 files resolve at the assembly's largest coordinate (the steps every
+        union is repaired in, :data:`~cadpipe.core.float32.COLLAPSE` of them): its
+        rings would come back as slivers. Before any boolean."""
+        boxes = [s.box for solids, bores in placed_parts for s in (*solids, *bores)]
+        if not boxes:
+            return
+        step = float32.step(np.array(boxes), float32.COLLAPSE)
+        for part, (solids, _) in zip(self._parts.values(), placed_parts):
+            feature = _finest(part.obj)
+            if feature is not None and part.transform is not None:   # its least stretch
+                feature *= float(np.linalg.svd(part.transform[:3, :3], compute_uv=False).min())
+            thinnest = min(float(np.ptp(s.box, axis=0).min()) for s in solids) \
+                if solids else None                   # any part: its box's least extent
+            found = [f for f in (feature, thinnest) if f is not None]
+            if not found:
+                continue
+            feature = min(found)
+            if feature < step:
+                raise GeometryError(
+                    f"its finest features ({feature:.3g} {self.units}) are finer than float32 "
+                    f"files can hold where this assembly reaches ({step:.3g} {self.units} "
+                    "there); make the part larger, or build it in an assembly nearer the "
+                    "origin", part=part.name)
 
     def _collect(self):
         """``(adds, cuts, clips)``: every added shape and every bore and subtracted part
@@ -320,8 +384,9 @@ class Assembly:
         every clip``. A shape no other solid's box reaches is its own world mesh,
         untouched (shape given); the rest is one boolean result (shape None)."""
         _, cuts, clips = self._operands
-        cut_boxes = np.array([c.box if isinstance(c, _Shape) else c.bounding_box()
-                              for c in cuts], np.float64).reshape(-1, 2, 3)
+        cut_boxes = np.array([c.box if isinstance(c, _Shape) else
+                              np.reshape(c.bounding_box(), (2, 3)) for c in cuts],
+                             np.float64).reshape(-1, 2, 3)
         work = clusters(np.array([a.box for a in adds]).reshape(-1, 2, 3), cut_boxes,
                         bounding_boxes(clips))
         pieces, booleans = [], []
@@ -353,7 +418,7 @@ class Assembly:
                 manifold3d.Manifold.batch_boolean(solids, manifold3d.OpType.Add)
             reference = sum(adds[i].world.volume for index, _ in booleans for i in index)
             if not solid.is_empty() and solid.volume() > 1e-9 * reference:
-                pieces.append((None, exportable(solid, part_of_id=self._names)))
+                pieces.append((None, float32_solid(solid, part_of_id=self._names)))
         return pieces
 
     def _labelled(self, pieces, attributes):
@@ -407,8 +472,10 @@ class Assembly:
             if not pieces:
                 raise GeometryError(f"assembly {self.name!r}: nothing is left after the "
                                     "subtractions and intersections")
-            self._union = self._labelled(pieces, {"kind": "assembly", "name": self.name,
-                                                  "units": self.units})
+            union = self._labelled(pieces, {"kind": "assembly", "name": self.name,
+                                            "units": self.units})
+            _refuse_invalid(union, self.name)
+            self._union = union
         return self._union
 
     def mesh(self) -> Mesh:

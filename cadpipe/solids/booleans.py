@@ -12,15 +12,16 @@ with :func:`snap`.
 :func:`combine` computes ``(union of adds - union of cuts) & every clip`` with
 manifold3d's batch operations, and only where bounding boxes meet
 (:func:`clusters`): parts that overlap nothing are never sent through a boolean.
-:func:`exportable` makes a boolean result survive files of float32 coordinates.
+:func:`~cadpipe.geometry.swept.float32_solid` makes a boolean result survive files
+of float32 coordinates.
 """
 
 import numpy as np
 
-from cadpipe.core import float32
 from cadpipe.errors import GeometryError, MeshError
 from cadpipe.geometry.ragged import Groups
 from cadpipe.geometry.mesh import Mesh, reserve_ids
+from cadpipe.geometry.swept import snapped
 from cadpipe.geometry.topology import connected_labels
 
 #: :func:`snap` welds vertices closer than this fraction of the mesh's bounding-box diagonal
@@ -28,32 +29,21 @@ SNAP_TOLERANCE = 1e-6
 
 
 def snap(mesh, tolerance=None):
-    """Weld vertices closer than ``tolerance`` and drop the triangles that collapse.
+    """Weld vertices closer than ``tolerance`` and drop the triangles that collapse
+    (:func:`~cadpipe.geometry.swept.snapped`, the one weld by distance).
 
     Imported meshes often repeat a vertex with slightly different coordinates on
     each side of a seam (OBJ with six decimals, per-triangle STL corners); manifold3d
     would then see an open surface. Vertices within ``tolerance`` of each other
     (default :data:`SNAP_TOLERANCE` times the bounding-box diagonal) become one.
     """
-    from scipy.spatial import cKDTree
-
     vertices = mesh.vertices
     if tolerance is None:
         tolerance = SNAP_TOLERANCE * float(np.linalg.norm(np.ptp(vertices, axis=0))) \
             if len(vertices) else 0.0
     if tolerance <= 0 or len(vertices) < 2:
         return mesh
-    pairs = cKDTree(vertices).query_pairs(tolerance, output_type="ndarray")
-    if not len(pairs):
-        return mesh
-    label = connected_labels(len(vertices), pairs[:, 0], pairs[:, 1])
-    _, first = np.unique(label, return_index=True)
-    faces = label[mesh.faces]
-    keep = (faces[:, 0] != faces[:, 1]) & (faces[:, 1] != faces[:, 2]) & \
-        (faces[:, 2] != faces[:, 0])
-    face_part = None if mesh.face_part is None else mesh.face_part[keep]
-    return Mesh(vertices[first], faces[keep], face_part=face_part, part_names=mesh.part_names,
-                attributes=mesh.attributes)
+    return snapped(mesh, tolerance)[0]
 
 
 def as_solid(mesh, name, original_id):
@@ -259,113 +249,3 @@ def carve(bodies, bores=(), name="solid", **mesh_options):
     if is_void(solid, adds):
         raise GeometryError("nothing is left after cutting the bores", part=name)
     return Mesh.from_manifold(solid, **mesh_options)
-
-
-def exportable(solid, part_of_id=None, **mesh_options):
-    """The :class:`Mesh` of a boolean result, fit for files of float32 coordinates.
-
-    What float32 cannot tell apart, a file merges: an edge shorter than
-    :data:`~cadpipe.core.float32.COLLAPSE` float32 steps becomes a point (manifold3d's
-    ``simplify`` collapses it, moving the surface less than that; those it leaves are
-    collapsed too,
-    :func:`without_short_edges`), and copies of one point that the
-    boolean kept apart, where the solid touches itself (a pinch), become one vertex
-    with non-manifold edges (:func:`separated_pinches` moves each copy into its own
-    fan). Triangles of zero area go with the collapses.
-
-    Parameters
-    ----------
-    solid : manifold3d.Manifold
-    part_of_id : mapping of int to str, optional
-        As for :meth:`Mesh.from_manifold`.
-    **mesh_options
-        Other :meth:`Mesh.from_manifold` arguments.
-
-    Returns
-    -------
-    mesh : Mesh
-    """
-    step = float32.step(solid.bounding_box(), float32.COLLAPSE)
-    mesh = Mesh.from_manifold(without_short_edges(solid.simplify(step), step),
-                              part_of_id=part_of_id, **mesh_options)
-    return separated_pinches(mesh, step)
-
-
-def without_short_edges(solid, step):
-    """``solid`` with every edge shorter than ``step`` collapsed.
-
-    ``simplify`` leaves some, where collapsing them would fold a triangle over (56
-    of 290,000 in the union of 1,000 crossing pipes); a float32 file can give both
-    ends of such an edge one position (in whichever unit it is written) and weld
-    them, and the faces around them then meet at edges of more than two faces. The
-    ends of each run of short edges are put on one point, which moves the surface
-    less than ``step``, and manifold3d rebuilds the solid, collapsing each edge of
-    zero length and its two triangles as a manifold edge collapse.
-    """
-    import manifold3d
-
-    out = solid.to_mesh64()
-    vertices = np.array(out.vert_properties)
-    faces = np.asarray(out.tri_verts).astype(np.int64)
-    a, b = faces.ravel(), faces[:, [1, 2, 0]].ravel()
-    short = np.linalg.norm(vertices[a, :3] - vertices[b, :3], axis=1) < step
-    if not short.any():
-        return solid
-    group = connected_labels(len(vertices), a[short], b[short])
-    _, first = np.unique(group, return_index=True)
-    vertices[:, :3] = vertices[first[group], :3]          # each run on its first vertex
-    arrays = {k: np.array(getattr(out, k), np.uint64)
-              for k in ("tri_verts", "merge_from_vert", "merge_to_vert", "run_index", "face_id")}
-    rebuilt = manifold3d.Manifold(manifold3d.Mesh64(
-        vert_properties=vertices, run_original_id=np.array(out.run_original_id, np.uint32),
-        **arrays))
-    return rebuilt if rebuilt.status() == manifold3d.Error.NoError else solid
-
-
-def separated_pinches(mesh, step):
-    """``mesh`` with vertices closer than ``step`` (copies of one point) moved apart.
-
-    Each such vertex moves by ``2 * step`` towards the centre of its own neighbours
-    (at most a quarter of its shortest edge), into the fan of triangles it belongs
-    to, so the fans that touched there part and every file keeps them apart.
-
-    Parameters
-    ----------
-    mesh : Mesh
-        Closed, its vertices in the model's length unit.
-    step : float
-        The distance below which a file merges two points.
-
-    Returns
-    -------
-    mesh : Mesh
-        ``mesh`` itself when no vertex needs to move.
-    """
-    from scipy.spatial import cKDTree
-
-    vertices, faces = mesh.vertices, mesh.faces
-    if step <= 0 or len(vertices) < 2:
-        return mesh
-    movers = np.unique(cKDTree(vertices).query_pairs(step, output_type="ndarray"))
-    if not len(movers):
-        return mesh
-    moving = np.zeros(len(vertices), bool)
-    moving[movers] = True
-    ring = np.zeros_like(vertices)
-    count = np.zeros(len(vertices))
-    shortest = np.full(len(vertices), np.inf)
-    for k in range(3):                       # each corner's two neighbours in its triangle
-        here, a, b = faces[:, k], faces[:, (k + 1) % 3], faces[:, (k + 2) % 3]
-        rows = np.flatnonzero(moving[here])
-        np.add.at(ring, here[rows], vertices[a[rows]] + vertices[b[rows]])
-        np.add.at(count, here[rows], 2)
-        for other in (a, b):
-            length = np.linalg.norm(vertices[other[rows]] - vertices[here[rows]], axis=1)
-            np.minimum.at(shortest, here[rows], length)
-    toward = ring[movers] / np.maximum(count[movers], 1)[:, None] - vertices[movers]
-    norm = np.linalg.norm(toward, axis=1, keepdims=True)
-    distance = np.minimum(2 * step, 0.25 * shortest[movers])[:, None]
-    moved = np.array(vertices)
-    moved[movers] += np.divide(toward, norm, out=np.zeros_like(toward), where=norm > 0) * distance
-    return Mesh.trusted(moved, faces, face_part=mesh.face_part, part_names=mesh.part_names,
-                        attributes=mesh.attributes)
