@@ -67,10 +67,10 @@ def output_case(id, error, message, target, files=None):
                 ("build", "{}/spec.toml", "-o", "{}/" + target), {**GOOD_SPEC, **(files or {})})
 
 
-def mesh_case(id, error, message, content, command=("check",)):
-    """A mesh file ``part.stl`` that :meth:`cadpipe.Mesh.load` (and ``command``) refuses."""
-    return Case(id, error, message, lambda folder: cadpipe.Mesh.load(folder / "part.stl"),
-                (*command[:1], "{}/part.stl", *command[1:]), {"part.stl": content})
+def mesh_case(id, error, message, content, command=("check",), name="part.stl"):
+    """A mesh file ``name`` that :meth:`cadpipe.Mesh.load` (and ``command``) refuses."""
+    return Case(id, error, message, lambda folder: cadpipe.Mesh.load(folder / name),
+                (*command[:1], "{}/" + name, *command[1:]), {name: content})
 
 
 BOX = trimesh.creation.box()
@@ -126,6 +126,9 @@ CASES = [
     mesh_case("folder-as-mesh", ExportError, "is a folder, not a mesh file", FOLDER),
     mesh_case("truncated-stl", MeshError, "holds no triangles", BOX_STL[:300]),
     mesh_case("garbage-stl", MeshError, "holds no triangles", b"\x00\x01 not a mesh " * 9),
+    mesh_case("empty-obj", MeshError, "holds no triangles", b"", name="part.obj"),
+    mesh_case("comment-only-obj", MeshError, "holds no triangles", b"# nothing\n",
+              name="part.obj"),
     mesh_case("nan-stl", MeshError, "NaN or infinite", NAN_STL, ("view", "-o", "{}/out")),
     Case("non-closed-imported-mesh", MeshError, "lid.stl: not a closed solid",
          lambda folder: primitives.imported(folder / "lid.stl"),

@@ -195,6 +195,22 @@ def test_sides_from_chordal_tolerance():
     assert Pipe([[0, 0, 0], [1, 0, 0]], 1.0, tolerance=1e-3).sides == n
 
 
+@pytest.mark.parametrize("tolerance", [1e-7, 1e-12, 1e-300, 5e-324])
+def test_sides_from_tiny_tolerances(tolerance):
+    """A tolerance far below the radius: the analytic count (the chord's sagitta
+    ``r (1 - cos(pi / n))`` against ``tolerance``, in extended precision) or, beyond
+    4,096 sides, an InputError about the tolerance; never an OverflowError."""
+    radius = 0.05
+    angle = np.arccos(np.longdouble(1) - np.longdouble(tolerance) / radius)
+    exact = int(np.ceil(np.pi / angle)) if angle * 4097 > np.pi else None
+    if exact is not None:
+        assert sides_for_tolerance(radius, tolerance) == exact
+        return
+    with pytest.raises(cadpipe.InputError, match="more than 4096 sides") as info:
+        Pipe([[0, 0, 0], [1, 0, 0], [1, 1, 0]], radius, tolerance=tolerance)
+    assert info.value.key == "tolerance"
+
+
 def test_local_self_intersection_is_reported_with_its_place():
     s = np.linspace(0, np.pi, 60)
     arc = np.c_[0.2 * np.cos(s), 0.2 * np.sin(s), 0 * s]        # bend radius 0.2

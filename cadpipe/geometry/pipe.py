@@ -41,11 +41,19 @@ MAX_SIDES = 4096
 
 
 def sides_for_tolerance(radius, tolerance):
-    """Fewest sides whose polygon stays within ``tolerance`` of a circle of ``radius``."""
-    ratio = 1.0 - float(tolerance) / float(radius)
-    if ratio <= -1.0:
+    """Fewest sides whose polygon stays within ``tolerance`` of a circle of ``radius``
+    (``MAX_SIDES + 1`` where more than :data:`MAX_SIDES` would be needed).
+
+    The half angle a side spans is ``arccos(1 - t/r) = 2 arcsin(sqrt(t / 2r))``; the arcsin
+    form keeps its digits for a tolerance far below the radius, where ``1 - t/r`` rounds
+    to 1 and the arccos form divides by zero."""
+    half = float(tolerance) / (2.0 * float(radius))
+    if half >= 1.0:
         return 3
-    return max(3, int(np.ceil(np.pi / np.arccos(max(ratio, -1.0)) - 1e-9)))
+    angle = 2.0 * np.arcsin(np.sqrt(half))
+    if angle * (MAX_SIDES + 1) <= np.pi:
+        return MAX_SIDES + 1
+    return max(3, int(np.ceil(np.pi / angle - 1e-9)))
 
 
 def _frozen(values):
@@ -185,8 +193,8 @@ class Pipe:
             sides = 16 if self.tolerance is None else \
                 sides_for_tolerance(radius.max(), self.tolerance)
             if sides > MAX_SIDES:
-                raise InputError(f"{self.tolerance:g} needs {sides} sides, more than "
-                                 f"{MAX_SIDES}; use a larger tolerance", key="tolerance")
+                raise InputError(f"tolerance {self.tolerance:g} needs more than {MAX_SIDES} "
+                                 "sides; use a larger tolerance", key="tolerance")
         set_("sides", as_int(sides, "sides", low=3, high=MAX_SIDES))
         if self.cap_segments is not None:
             set_("cap_segments", as_int(self.cap_segments, "cap_segments", low=1,

@@ -286,6 +286,8 @@ def _runs(data):
     buf = np.frombuffer(data, np.uint8)
     starts = np.concatenate([[0], np.flatnonzero(buf == 10) + 1])
     starts = starts[starts < len(buf)]
+    if not len(starts):                            # an empty file: no lines, no runs
+        return
     ends = np.append(starts[1:], len(buf))
     padded = np.append(buf, [10, 10])
     first, second = padded[starts], padded[starts + 1]
