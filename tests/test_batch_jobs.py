@@ -362,6 +362,10 @@ def test_cli_runs_a_batch_and_reports_failed_jobs(cell, cluster, tmp_path, capsy
     ('[[jobs]]\nspec = "duct.toml"\nrows = "short.csv"\n', "line 3"),
     ('[[jobs]]\nname = "a b"\nspec = "duct.toml"\nparams = { radius = 3, sides = 8 }\n',
      "cannot name a folder"),
+    ('[[jobs]]\nname = "summary.json"\nspec = "duct.toml"\nparams = { radius = 3, sides = 8 }\n',
+     "the batch's own summary.json"),
+    ('[[jobs]]\nname = "Summary.HTML"\nspec = "duct.toml"\nparams = { radius = 3, sides = 8 }\n',
+     "the batch's own summary.html"),
     ('[[jobs]]\nname = "x"\nspec = "duct.toml"\nrows = "rows.csv"\n'
      '[[jobs]]\nname = "x-1"\nspec = "duct.toml"\nparams = { radius = 3, sides = 8 }\n',
      "also the name of a job"),

@@ -20,12 +20,16 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from cadpipe.batch.params import check_names, csv_rows, fill, parameter_sets, placeholders
+from cadpipe.batch.summary import SUMMARY_HTML, SUMMARY_JSON
 from cadpipe.errors import CadpipeError, InputError, SpecError
 from cadpipe.spec import Number, SpecContext, parse
 
 KINDS = ("build", "trajectory")
 #: a job's name is its output folder's name
 NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+=-]{0,119}")
+#: names of what the batch itself writes into OUT beside the job folders, in lower case
+#: (on a case-insensitive disk ``Summary.json`` is the same file)
+RESERVED = (SUMMARY_JSON, SUMMARY_HTML)
 #: trajectory columns that hold the time (seconds) rather than a joint value
 TIME_COLUMNS = ("time", "t")
 
@@ -320,6 +324,10 @@ def _jobs_table(ctx, *, jobs: list, defaults: dict | None = None):
                 raise ctx.error(f"jobs[{i}].name", f"{job.name!r} cannot name a folder: use "
                                 "letters, digits and _ . + = - (at most 120), starting with "
                                 "a letter or digit")
+            if job.name.lower() in RESERVED:
+                raise ctx.error(f"jobs[{i}].name", f"{job.name!r} is the name of the batch's "
+                                f"own {job.name.lower()} in the output folder; give the job "
+                                "another name")
             if job.name in seen:
                 raise ctx.error(f"jobs[{i}].name", f"{job.name!r} is also the name of a job "
                                 f"of jobs[{seen[job.name]}]; give each job its own name")
