@@ -56,6 +56,8 @@ class Limits:
         Uncompressed over compressed size of an archive read (3MF, USDZ are zips).
     max_unpacked_bytes : int
         Bytes an archive read may expand to in all.
+    max_jobs : int
+        Jobs in one batch, grids and rows expanded (counted before they are).
     """
 
     max_triangles: int = 5_000_000
@@ -67,6 +69,7 @@ class Limits:
     max_number_chars: int = 100
     max_expansion: float = 200.0
     max_unpacked_bytes: int = 4 << 30
+    max_jobs: int = 100_000
 
 
 _CURRENT = contextvars.ContextVar("cadpipe_limits", default=Limits())  # noqa: B039 (frozen)
@@ -76,7 +79,8 @@ _UNITS = {"max_triangles": "triangles", "max_samples": "path samples", "max_part
           "max_swept_segments": "segments or segment pairs",
           "max_spec_bytes": "bytes",
           "max_depth": "levels of nesting", "max_number_chars": "digits",
-          "max_expansion": "times expansion", "max_unpacked_bytes": "bytes unpacked"}
+          "max_expansion": "times expansion", "max_unpacked_bytes": "bytes unpacked",
+          "max_jobs": "jobs"}
 
 
 
@@ -98,10 +102,13 @@ _HELP = {"max_triangles": "refuse work that would make more triangles than N",
          "max_number_chars": "refuse a number in a spec longer than N characters",
          "max_expansion": "refuse an archive (3MF, USDZ, GLB) expanding more than N times",
          "max_unpacked_bytes": "refuse an archive or binary file expanding to more than N "
-                               "bytes"}
+                               "bytes",
+         "max_jobs": "refuse a batch of more than N jobs (grids and rows expanded)"}
 
+#: the budgets a JOBS file sets with a top-level key of the same name (a spec has no jobs)
+JOBS_KEYS = ("max_jobs",)
 #: the budgets a spec sets with a top-level key of the same name
-SPEC_KEYS = tuple(n for n in _names() if n not in READ_LIMITS)
+SPEC_KEYS = tuple(n for n in _names() if n not in READ_LIMITS + JOBS_KEYS)
 #: the budgets the CLI sets with a flag each (``--max-triangles N``): all of them
 CLI_FLAGS = _names()
 
@@ -169,6 +176,7 @@ def check(name: str, needed: float, what: str, *, at_least: bool = False, **wher
     if not needed <= limit:                       # NaN and inf are over any limit
         ways = [f"cadpipe.limits.using({name}=...)"]
         ways += [f"the spec key {name}"] if name in SPEC_KEYS else []
+        ways += [f"the JOBS key {name}"] if name in JOBS_KEYS else []
         ways += [flag(name)] if name in CLI_FLAGS else []
         amount = "more than can be counted" if not needed < 1e30 else \
             f"{'at least' if at_least else 'about'} {needed:,.0f}"

@@ -371,6 +371,16 @@ def test_cli_runs_a_batch_and_reports_failed_jobs(cell, cluster, tmp_path, capsy
      "also the name of a job"),
     ('[[jobs]]\ncell = "cell.toml"\ntrajectory = "words.csv"\n', "rows of numbers"),
     ("jobs = 3", "expected a list"),
+    # a million combinations: refused from the counts, before one is made
+    ('[[jobs]]\nspec = "duct.toml"\ngrid = { radius = ' + str(list(range(1, 1001))) +
+     ', sides = ' + str(list(range(3, 1003))) + ' }\n',
+     "jobs[0].grid: a grid of 1000 x 1000 combinations needs about 1,000,000 jobs, more "
+     "than the limit of 100,000"),
+    ('max_jobs = 2\n[[jobs]]\nspec = "duct.toml"\ngrid = { radius = [3, 4, 5], sides = [8] }\n',
+     "more than the limit of 2; raise it with"),
+    ('max_jobs = 2\n[[jobs]]\nspec = "duct.toml"\ngrid = { radius = [3, 4], sides = [8] }\n'
+     '[[jobs]]\nname = "one"\nspec = "duct.toml"\nparams = { radius = 3, sides = 8 }\n',
+     "jobs[1]: jobs[0] to jobs[1] needs about 3 jobs"),
 ])
 def test_cli_bad_input_is_one_line_and_runs_nothing(cell, tmp_path, capsys, jobs, message):
     (cell / "short.csv").write_text("radius,sides\n3,8\n4\n")

@@ -18,13 +18,14 @@ def names():
     return [f.name for f in dataclasses.fields(limits.Limits)]
 
 
-def test_every_limit_has_a_cli_flag_and_every_one_but_the_spec_reads_a_spec_key():
+def test_every_limit_has_a_cli_flag_and_every_one_but_the_spec_and_the_jobs_reads_a_spec_key():
     from cadpipe.cli import build_parser
     from cadpipe.cli import commands  # noqa: F401
 
     assert set(limits.CLI_FLAGS) == set(names())
     assert set(limits.SPEC_KEYS) == set(names()) - {"max_spec_bytes", "max_depth",
-                                                    "max_number_chars"}
+                                                    "max_number_chars", "max_jobs"}
+    assert limits.JOBS_KEYS == ("max_jobs",)
     for name in names():
         args = build_parser().parse_args(["check", "x.stl", limits.flag(name), "7"])
         assert getattr(args, name) == 7

@@ -19,6 +19,7 @@ from pathlib import Path as FilePath
 
 import numpy as np
 
+from cadpipe import limits
 from cadpipe.batch.params import check_names, csv_rows, fill, parameter_sets, placeholders
 from cadpipe.batch.summary import SUMMARY_HTML, SUMMARY_JSON
 from cadpipe.errors import CadpipeError, InputError, SpecError
@@ -251,6 +252,8 @@ def _entry(ctx, *, name: str | None = None, spec: str | None = None, cell: str |
                "tcp": tuple(map(float, tcp or (0, 0, 0))), "between": bool(between),
                "tolerance": tolerance, "margin": margin,
                "pipe": ctx.call(_pipe, pipe or {}, "pipe")}
+    limits.check("max_jobs", len(sets) * len(files),
+                 f"{len(sets):,} parameter sets x {len(files):,} trajectories", key=where)
     jobs = []
     for values in sets:
         check_names(used, values, where)
@@ -311,8 +314,12 @@ def _numbered(jobs):
     return [replace(j, name=f"{j.name}-{k:0{width}d}") for k, j in enumerate(jobs, start=1)]
 
 
-def _jobs_table(ctx, *, jobs: list, defaults: dict | None = None):
-    """The top level of a JOBS file: ``jobs`` (a list of tables) and shared ``defaults``."""
+def _jobs_table(ctx, *, jobs: list, defaults: dict | None = None, max_jobs: int | None = None):
+    """The top level of a JOBS file: ``jobs`` (a list of tables), shared ``defaults`` and
+    the ``max_jobs`` budget (:mod:`cadpipe.limits`)."""
+    if max_jobs is not None:
+        with limits.using(max_jobs=max_jobs):
+            return _jobs_table(ctx, jobs=jobs, defaults=defaults)
     if not jobs:
         raise InputError("expected at least one job table", key="jobs")
     made, seen = [], {}
@@ -333,6 +340,7 @@ def _jobs_table(ctx, *, jobs: list, defaults: dict | None = None):
                                 f"of jobs[{seen[job.name]}]; give each job its own name")
             seen[job.name] = i
             made.append(job)
+        limits.check("max_jobs", len(made), f"jobs[0] to jobs[{i}]", key=f"jobs[{i}]")
     return made
 
 

@@ -19,6 +19,7 @@ import itertools
 import math
 import re
 
+from cadpipe import limits
 from cadpipe.errors import InputError
 
 #: ``${name}`` (group 1), or ``$${`` (an escaped literal ``${``)
@@ -174,6 +175,9 @@ def parameter_sets(params=None, grid=None, rows=None):
             if not isinstance(choices, list) or not choices:
                 raise InputError(f"expected a non-empty list of values, got {choices!r}",
                                  key=f"grid.{name}")
+        count = math.prod(len(choices) for choices in grid.values())
+        sizes = " x ".join(str(len(choices)) for choices in grid.values())
+        limits.check("max_jobs", count, f"a grid of {sizes} combinations", key="grid")
         sets = [dict(zip(grid, combo)) for combo in itertools.product(*grid.values())]
         where = "grid"
     elif rows is not None:
@@ -181,6 +185,7 @@ def parameter_sets(params=None, grid=None, rows=None):
             if not isinstance(row, dict):
                 raise InputError(f"expected a table of parameter values, got {row!r}",
                                  key=f"rows[{i}]")
+        limits.check("max_jobs", len(rows), f"{len(rows):,} rows", key="rows")
         sets, where = [dict(row) for row in rows], "rows"
     else:
         return [params]
