@@ -370,6 +370,11 @@ def test_cli_runs_a_batch_and_reports_failed_jobs(cell, cluster, tmp_path, capsy
      '[[jobs]]\nname = "x-1"\nspec = "duct.toml"\nparams = { radius = 3, sides = 8 }\n',
      "also the name of a job"),
     ('[[jobs]]\ncell = "cell.toml"\ntrajectory = "words.csv"\n', "rows of numbers"),
+    # globs stay in the JOBS file's folder: no walk of the whole disk
+    ('[[jobs]]\ncell = "cell.toml"\ntrajectories = "/**/*.csv"\n',
+     "jobs[0].trajectories: '/**/*.csv' reaches outside the JOBS file's folder"),
+    ('[[jobs]]\ncell = "cell.toml"\ntrajectories = "../**/*.csv"\n',
+     "reaches outside the JOBS file's folder"),
     ("jobs = 3", "expected a list"),
     # a million combinations: refused from the counts, before one is made
     ('[[jobs]]\nspec = "duct.toml"\ngrid = { radius = ' + str(list(range(1, 1001))) +

@@ -31,6 +31,8 @@ NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+=-]{0,119}")
 #: names of what the batch itself writes into OUT beside the job folders, in lower case
 #: (on a case-insensitive disk ``Summary.json`` is the same file)
 RESERVED = (SUMMARY_JSON, SUMMARY_HTML)
+#: the stand-in file name of job tables given directly (relative to the current folder)
+TABLES = "jobs"
 #: trajectory columns that hold the time (seconds) rather than a joint value
 TIME_COLUMNS = ("time", "t")
 
@@ -279,9 +281,16 @@ def _trajectory_files(ctx, trajectory, trajectories):
                          "\"programs/*.csv\"): exactly one", key="trajectory")
     if trajectory is not None:
         return [ctx.file_path(trajectory, "trajectory")]
-    found = sorted(FilePath(p) for p in glob.glob(str(ctx.folder / trajectories),
-                                                  recursive=True))
-    files = [p for p in found if p.is_file()]
+    pattern = FilePath(trajectories)
+    confined = ctx.file != FilePath(TABLES)         # a JOBS file, not tables from Python
+    if confined and (pattern.is_absolute() or ".." in pattern.parts):
+        raise InputError(f"{trajectories!r} reaches outside the JOBS file's folder; give a "
+                         "pattern inside it (\"programs/*.csv\") or one trajectory = file",
+                         key="trajectories")
+    folder = ctx.folder.resolve()
+    found = sorted(FilePath(p) for p in glob.glob(str(ctx.folder / pattern), recursive=True))
+    files = [p for p in found if p.is_file() and
+             (not confined or p.resolve().is_relative_to(folder))]
     if not files:
         raise InputError(f"no file matches {trajectories!r} in {ctx.folder}",
                          key="trajectories")
@@ -364,7 +373,7 @@ def read_jobs(source):
         Naming the file, the key (``jobs[2].grid.radius``) and what was expected.
     """
     if isinstance(source, (list, tuple)):
-        return SpecContext(FilePath("jobs")).call(_jobs_table, {"jobs": list(source)})
+        return SpecContext(FilePath(TABLES)).call(_jobs_table, {"jobs": list(source)})
     file = FilePath(source)
     if not file.is_file():
         raise SpecError("is a folder, not a JOBS file" if file.is_dir() else
