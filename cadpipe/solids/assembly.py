@@ -198,9 +198,11 @@ def _finest(obj):
 
 
 def _refuse_invalid(solid, name):
-    """:class:`GeometryError` when the union ``solid`` of assembly ``name`` fails the test
-    :func:`~cadpipe.solids.validity.check_mesh` holds solids to, naming the parts whose
-    faces are at fault: no invalid solid is ever returned or written."""
+    """:class:`GeometryError` when the boolean result ``solid`` of assembly ``name`` fails
+    the test :func:`~cadpipe.solids.validity.check_mesh` holds solids to, naming the parts
+    whose faces are at fault: no invalid solid is ever returned or written. Parts that
+    skip the booleans (their boxes reach no other) are valid as prepared and cannot cross
+    or hold what lies outside their boxes, so only the boolean result is checked."""
     crossing = self_intersections(solid)
     problems = problems_of(solid, crossing=len(crossing))
     if not problems:
@@ -472,10 +474,11 @@ class Assembly:
             if not pieces:
                 raise GeometryError(f"assembly {self.name!r}: nothing is left after the "
                                     "subtractions and intersections")
-            union = self._labelled(pieces, {"kind": "assembly", "name": self.name,
-                                            "units": self.units})
-            _refuse_invalid(union, self.name)
-            self._union = union
+            for shape, mesh in pieces:     # a part no other box reaches is valid as it was
+                if shape is None:
+                    _refuse_invalid(mesh, self.name)
+            self._union = self._labelled(pieces, {"kind": "assembly", "name": self.name,
+                                                  "units": self.units})
         return self._union
 
     def mesh(self) -> Mesh:
