@@ -28,7 +28,7 @@ from scipy.spatial.transform import Rotation
 
 import cadpipe
 from cadpipe import CadpipeError
-from oracle import crossing_faces
+from oracle import solid_problems
 
 SEED = 20261204
 CASES = 2000
@@ -163,24 +163,16 @@ def reference_volume(placed):
 
 
 def judge(mesh, placed):
-    """What is wrong with the union ``mesh`` of the ``placed`` parts."""
-    vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
-    if not len(faces):
-        return ["no triangles"]
-    wrong = []
-    crossing = crossing_faces(vertices, faces)
-    if len(crossing):
-        wrong.append(f"{len(crossing)} pairs of faces cut through each other")
-    solid = manifold3d.Manifold(manifold3d.Mesh(vertices.astype(np.float32),
-                                                faces.astype(np.uint32)))
-    if solid.status() != manifold3d.Error.NoError:
-        wrong.append(f"manifold3d: {solid.status()}")
-    tm = trimesh.Trimesh(vertices, faces, process=False)
-    if not (tm.is_watertight and tm.is_winding_consistent and tm.volume > 0):
-        wrong.append("trimesh: not a watertight, consistently wound, positive solid")
+    """What is wrong with the union ``mesh`` of the ``placed`` parts: the oracle's solid
+    tests, and its volume against manifold3d's booleans of the same parts."""
+    wrong = solid_problems(mesh, round_trip=False)
+    if wrong == ["no triangles"]:
+        return wrong
+    volume = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                             process=False).volume
     expected, added = reference_volume(placed)
-    if abs(tm.volume - expected) > VOLUME_TOLERANCE * added:
-        wrong.append(f"volume {tm.volume:.6g}, manifold3d's booleans {expected:.6g}")
+    if abs(volume - expected) > VOLUME_TOLERANCE * added:
+        wrong.append(f"volume {volume:.6g}, manifold3d's booleans {expected:.6g}")
     return wrong
 
 
