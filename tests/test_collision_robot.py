@@ -112,5 +112,12 @@ def test_bad_robot_files_are_refused(tmp_path):
     broken.write_text("<robot name='x'><link name='a'>")
     with pytest.raises(SpecError, match="not readable XML"):
         Robot.from_urdf(broken)
+    for text, said in (("<robot/>", "a <robot> with no name and no <link>"),   # ur3.urdf's
+                       ("<robot name='r'/>", "a <robot> with no <link>"),
+                       ("<sdf><model name='m'/></sdf>", "this is a <sdf>")):
+        broken.write_text(text)
+        with pytest.raises(SpecError, match="not a URDF robot") as info:
+            Robot.from_urdf(broken)
+        assert said in str(info.value)
     with pytest.raises(SpecError, match="no such SRDF"):
         srdf_disabled_pairs(tmp_path / "missing.srdf")

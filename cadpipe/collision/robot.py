@@ -340,7 +340,15 @@ class Robot:
             raise InputError(f"open_meshes must be 'hull' or 'as given', got {open_meshes!r}",
                              key="open_meshes")
         path = FilePath(urdf)
-        _xml_root(path, "URDF")       # a clear error for bad XML (yourdfpy would log it)
+        root = _xml_root(path, "URDF")   # a clear error for bad XML (yourdfpy would log it)
+        if root.tag != "robot" or not root.get("name") or root.find("link") is None:
+            # example-robot-data's ur3.urdf is an empty <robot>: say what a URDF needs
+            missing = [what for what, gone in (("name", not root.get("name")),
+                                               ("<link>", root.find("link") is None)) if gone]
+            found = f"a <{root.tag}>" if root.tag != "robot" else \
+                f"a <robot> with no {' and no '.join(missing)}"
+            raise SpecError("not a URDF robot: a URDF is a <robot name=...> holding at least "
+                            f"one <link>, this is {found}", file=path)
         try:
             model = yourdfpy.URDF.load(str(path), load_meshes=False, build_scene_graph=False,
                                        build_collision_scene_graph=False)
