@@ -53,8 +53,8 @@ def float32_solid(solid, part_of_id=None, **mesh_options):
     2. the vertex clusters welded (:func:`snapped`) at ``WELD``, 4 and ``CLOSE`` steps.
 
     The first result that keeps the volume (to :data:`WELD_VOLUME`), is closed and
-    oriented, and has no face that cuts through another near what the repair moved is
-    taken; failing all, the float64 solid as manifold3d made it.
+    oriented, and has no face the repair moved cutting through another is taken;
+    failing all, the float64 solid as manifold3d made it.
 
     Raises
     ------
@@ -75,7 +75,7 @@ def float32_solid(solid, part_of_id=None, **mesh_options):
     simplified = Mesh.from_manifold(without_short_edges(solid.simplify(collapse), collapse),
                                     part_of_id, **mesh_options)
     candidates = [lambda: separated_pinches(simplified, collapse)]
-    candidates += [lambda k=k: snapped(plain, k * step)[0]
+    candidates += [lambda k=k: snapped(plain, k * step)
                    for k in (float32.WELD, 4, float32.CLOSE)]
     for make in candidates:
         candidate = make()
@@ -129,8 +129,6 @@ def snapped(mesh, tolerance):
     -------
     mesh : Mesh
         ``mesh`` itself when no two vertices are that close.
-    moved : (F,) bool
-        Which faces of the result have a vertex that moved.
     """
     from scipy.spatial import cKDTree
 
@@ -138,7 +136,7 @@ def snapped(mesh, tolerance):
     pairs = cKDTree(vertices).query_pairs(tolerance, output_type="ndarray") \
         if tolerance > 0 and len(vertices) > 1 else np.empty((0, 2), np.int64)
     if not len(pairs):
-        return mesh, np.zeros(len(faces), bool)
+        return mesh
     label = connected_labels(len(vertices), pairs[:, 0], pairs[:, 1])
     _, first = np.unique(label, return_index=True)
     faces = label[faces]
@@ -149,12 +147,10 @@ def snapped(mesh, tolerance):
                                  return_counts=True)
     single = counts[index.reshape(-1)] == 1
     faces = faces[single]
-    moved = (np.bincount(label, minlength=len(first)) > 1)[faces].any(axis=1)
     part = None if mesh.face_part is None else mesh.face_part[keep][single]
-    welded = Mesh(vertices[first], faces, face_part=part,
-                  part_names=mesh.part_names if part is not None else (),
-                  attributes=mesh.attributes)
-    return welded, moved
+    return Mesh(vertices[first], faces, face_part=part,
+                part_names=mesh.part_names if part is not None else (),
+                attributes=mesh.attributes)
 
 
 def without_short_edges(solid, step):

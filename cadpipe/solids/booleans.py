@@ -41,9 +41,7 @@ def snap(mesh, tolerance=None):
     if tolerance is None:
         tolerance = SNAP_TOLERANCE * float(np.linalg.norm(np.ptp(vertices, axis=0))) \
             if len(vertices) else 0.0
-    if tolerance <= 0 or len(vertices) < 2:
-        return mesh
-    return snapped(mesh, tolerance)[0]
+    return snapped(mesh, tolerance)
 
 
 def as_solid(mesh, name, original_id):

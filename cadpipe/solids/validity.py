@@ -65,13 +65,12 @@ def nested_shells(mesh: Mesh) -> np.ndarray:
         area = np.linalg.norm(normal, axis=1)
         t, normal, area = t[area > 0], normal[area > 0], area[area > 0]
         own = t.mean(axis=1) - 1e-6 * normal / np.sqrt(area)[:, None]
-        inside = (own[:, None] > lo[others]) & (own[:, None] < hi[others])
-        near = inside.all(axis=2).any(axis=1)
-        near = np.flatnonzero(near)
+        held = ((own[:, None] > lo[others]) & (own[:, None] < hi[others])).all(axis=2)
+        near = np.flatnonzero(held.any(axis=1))      # probes some other shell's box holds
         if len(near) == 0:
             continue
         pick = near[np.linspace(0, len(near) - 1, min(len(near), _PROBES)).astype(int)]
-        probes, reach = own[pick], inside[pick].all(axis=2)
+        probes, reach = own[pick], held[pick]
         w = np.zeros(len(probes))
         for k, o in enumerate(others):        # only the shells whose box holds a probe
             if reach[:, k].any():
